@@ -1,0 +1,42 @@
+"""Run one scenario on one engine: settings resolution, timing, and failure capture."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from typing import Any
+
+from pbr_xval.engine import Engine, Trajectory, get_engine
+from pbr_xval.scenario import Scenario
+from pbr_xval.scene import Scene, compile_scene
+
+__all__ = ["effective_settings", "run_scene", "run_scenario"]
+
+
+def effective_settings(engine: Engine, scene: Scene, overrides: Mapping[str, Any] | None) -> dict[str, Any]:
+    """Profile defaults ← scenario ``[engines.<name>]`` ← explicit ``overrides``."""
+    merged = dict(scene.engine_settings.get(engine.name, {}))
+    merged.update(overrides or {})
+    resolve = getattr(engine, "resolve_settings", None)
+    if resolve is not None:
+        return resolve(merged)
+    return {**engine.default_settings(), **merged}
+
+
+def run_scene(scene: Scene, engine: str | Engine, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    """Simulate a compiled scene; ``wall_time`` and provenance are filled in."""
+    eng = get_engine(engine)
+    full = effective_settings(eng, scene, settings)
+    t0 = time.perf_counter()
+    traj = eng.simulate(scene, full)
+    traj.wall_time = time.perf_counter() - t0
+    traj.scenario_hash = scene.scenario_hash
+    traj.settings = full
+    if not traj.versions:
+        traj.versions = eng.versions()
+    return traj
+
+
+def run_scenario(scn: Scenario, engine: str | Engine, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    """Compile and simulate."""
+    return run_scene(compile_scene(scn), engine, settings)

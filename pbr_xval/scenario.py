@@ -1,0 +1,572 @@
+"""The backend-neutral scenario: what a user writes, as validated pydantic models.
+
+A scenario is read from TOML, validated strictly (unknown keys are errors), written back to
+TOML, and hashed for provenance. Units are SI throughout (m, kg, s, rad unless a key says
+``_deg``). Example::
+
+    name = "housner_halfsine"
+    duration = 4.0
+
+    [rock]
+    shape = "box"
+    half_extents = [0.2, 0.2, 0.6]
+    density = 2400.0
+
+    [excitation]
+    type = "half_sine"
+    amplitude = 5.638
+    frequency = 1.0
+    phase = "housner_uplift"
+
+Paths inside a scenario (meshes, records) are relative to the scenario file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+import types
+import typing
+from pathlib import Path
+from typing import Annotated, Any, Literal, Union
+
+import tomli_w
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+__all__ = [
+    "Contact",
+    "Excitation",
+    "Pedestal",
+    "Rock",
+    "Scenario",
+    "ScenarioError",
+    "Toppling",
+    "load_scenario",
+]
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Vec3Pos = Annotated[list[PositiveFloat], Field(min_length=3, max_length=3)]
+Vec3 = Annotated[list[Finite], Field(min_length=3, max_length=3)]
+
+UNIT_SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001, "km": 1000.0, "ft": 0.3048, "in": 0.0254}
+
+
+class ScenarioError(ValueError):
+    """A scenario file is invalid; the message names the file, the key and what was expected."""
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
+
+
+# ------------------------------------------------------------------------ rock
+class _MassSpec(Strict):
+    density: PositiveFloat | None = Field(None, description="kg/m³")
+    mass: PositiveFloat | None = Field(None, description="kg")
+    yaw_deg: Finite = Field(0.0, description="rotation of the rock about the vertical, degrees")
+
+    @model_validator(mode="after")
+    def _one_of_density_mass(self) -> _MassSpec:
+        if self.density is not None and self.mass is not None:
+            raise ValueError("give either 'density' or 'mass', not both")
+        if self.density is None and self.mass is None:
+            raise ValueError("give 'density' (kg/m³) or 'mass' (kg)")
+        return self
+
+
+class BoxRock(_MassSpec):
+    shape: Literal["box"]
+    half_extents: Vec3Pos = Field(description="half sizes along x, y, z, m")
+
+
+class NotchedBlockRock(_MassSpec):
+    """A box with a rectangular notch cut through its whole depth (y) at the centre of the base."""
+
+    shape: Literal["notched_block"]
+    half_extents: Vec3Pos
+    notch_width: PositiveFloat = Field(description="full width of the notch along x, m")
+    notch_height: PositiveFloat = Field(description="height of the notch, m")
+
+    @model_validator(mode="after")
+    def _notch_fits(self) -> NotchedBlockRock:
+        bx, _, bz = self.half_extents
+        if self.notch_width >= 2 * bx:
+            raise ValueError(f"notch_width {self.notch_width} must be < the block width {2 * bx}")
+        if self.notch_height >= 2 * bz:
+            raise ValueError(f"notch_height {self.notch_height} must be < the block height {2 * bz}")
+        return self
+
+
+class CurvedBaseRock(_MassSpec):
+    """The seed's curved-base block (science.md §8): height H, corner radius r, flat length h."""
+
+    shape: Literal["curved_base"]
+    H: PositiveFloat = Field(description="height, m")
+    r: NonNegFloat = Field(description="radius of the rounded bottom corners, m")
+    h: NonNegFloat = Field(description="length of the flat part of the base, m")
+    depth: PositiveFloat = Field(1.0, description="extrusion depth along y for 3-D engines, m")
+    arc_segments: int = Field(32, ge=2, le=4096, description="facets per quarter arc in the 3-D mesh")
+
+    @model_validator(mode="after")
+    def _fits(self) -> CurvedBaseRock:
+        if self.r >= self.H:
+            raise ValueError(f"r = {self.r} must be < H = {self.H}")
+        if self.r == 0 and self.h == 0:
+            raise ValueError("r and h cannot both be 0 (the base would be a point)")
+        return self
+
+
+class MeshRock(_MassSpec):
+    shape: Literal["mesh"]
+    path: str = Field(description="mesh file (OBJ, PLY, STL, OFF), relative to the scenario file")
+    units: Literal["m", "cm", "mm", "km", "ft", "in"] = "m"
+    inertia: Annotated[list[Finite], Field(min_length=6, max_length=6)] | None = Field(
+        None, description="explicit inertia about the COM [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg·m²"
+    )
+    orientation: Literal["as_scanned", "stable"] = "as_scanned"
+
+
+Rock = Annotated[
+    Union[BoxRock, NotchedBlockRock, CurvedBaseRock, MeshRock],  # noqa: UP007
+    Field(discriminator="shape"),
+]
+
+
+# -------------------------------------------------------------------- pedestal
+class PlanePedestal(Strict):
+    kind: Literal["plane"] = "plane"
+
+
+class BoxPedestal(Strict):
+    kind: Literal["box"]
+    half_extents: Vec3Pos = Field(description="half sizes; the top face is at z = 0 under the rock")
+
+
+class MeshPedestal(Strict):
+    kind: Literal["mesh"]
+    path: str
+    units: Literal["m", "cm", "mm", "km", "ft", "in"] = "m"
+
+
+Pedestal = Annotated[
+    Union[PlanePedestal, BoxPedestal, MeshPedestal],  # noqa: UP007
+    Field(discriminator="kind"),
+]
+
+
+class Contact(Strict):
+    friction_static: NonNegFloat = Field(1.0, description="μ_s, dimensionless")
+    friction_dynamic: NonNegFloat | None = Field(None, description="μ_d (defaults to μ_s)")
+    restitution: Annotated[float, Field(ge=0, le=1)] = Field(0.0, description="normal velocity restitution")
+
+    @property
+    def mu_d(self) -> float:
+        return self.friction_static if self.friction_dynamic is None else self.friction_dynamic
+
+
+# ------------------------------------------------------------------ excitation
+class _MotionBase(Strict):
+    start_time: NonNegFloat = Field(0.0, description="s after t = 0 at which the motion starts")
+
+
+class HalfSineMotion(_MotionBase):
+    type: Literal["half_sine"]
+    amplitude: PositiveFloat = Field(description="m/s²")
+    frequency: PositiveFloat = Field(1.0, description="Hz (ω = 2πf)")
+    phase: Literal["housner_uplift"] | Finite = Field(
+        0.0, description="rad, or 'housner_uplift' for a·sinφ = uplift acceleration of the rock"
+    )
+
+
+class SawtoothMotion(_MotionBase):
+    type: Literal["sawtooth"]
+    pgv: PositiveFloat = Field(description="peak ground velocity, m/s")
+    period: PositiveFloat = Field(description="T, s")
+    skew: Annotated[float, Field(gt=0, lt=1)] = Field(0.5, description="rise fraction s of T")
+
+
+class OneSineMotion(_MotionBase):
+    type: Literal["one_sine"]
+    amplitude: PositiveFloat
+    frequency: PositiveFloat
+
+
+class OneCosineMotion(_MotionBase):
+    type: Literal["one_cosine"]
+    amplitude: PositiveFloat
+    frequency: PositiveFloat
+
+
+class RectangularMotion(_MotionBase):
+    type: Literal["rectangular"]
+    amplitude: PositiveFloat
+    pulse_duration: PositiveFloat = Field(description="s")
+
+
+class RickerMotion(_MotionBase):
+    type: Literal["ricker"]
+    amplitude: PositiveFloat
+    frequency: PositiveFloat
+    t0: PositiveFloat | None = None
+
+
+class RecordMotion(_MotionBase):
+    type: Literal["record"]
+    path: str = Field(description="record file, relative to the scenario file")
+    format: Literal["auto", "at2", "table"] = "auto"
+    units: Literal["m/s2", "g", "cm/s2"] = Field("m/s2", description="units of a plain table")
+    dt: PositiveFloat | None = Field(None, description="sample interval of a one-column table, s")
+    scale: PositiveFloat = 1.0
+    target_pga: PositiveFloat | None = Field(None, description="scale the record to this PGA, m/s²")
+    target_pgv: PositiveFloat | None = Field(None, description="scale the record to this PGV, m/s")
+    sign: Literal[1, -1] = 1
+
+    @model_validator(mode="after")
+    def _one_target(self) -> RecordMotion:
+        if self.target_pga is not None and self.target_pgv is not None:
+            raise ValueError("give at most one of 'target_pga' and 'target_pgv'")
+        return self
+
+
+Motion = Annotated[
+    Union[  # noqa: UP007
+        HalfSineMotion, SawtoothMotion, OneSineMotion, OneCosineMotion, RectangularMotion, RickerMotion, RecordMotion
+    ],
+    Field(discriminator="type"),
+]
+
+
+class _Shaking(Strict):
+    azimuth_deg: Finite = Field(0.0, description="direction of shaking, degrees from +x toward +y")
+    vertical: Motion | None = Field(None, description="optional vertical component (+z up)")
+
+
+def _excitation_class(motion_cls: type[BaseModel]) -> type[BaseModel]:
+    return types.new_class(
+        motion_cls.__name__.replace("Motion", "Excitation"), (motion_cls, _Shaking), {}
+    )
+
+
+HalfSineExcitation = _excitation_class(HalfSineMotion)
+SawtoothExcitation = _excitation_class(SawtoothMotion)
+OneSineExcitation = _excitation_class(OneSineMotion)
+OneCosineExcitation = _excitation_class(OneCosineMotion)
+RectangularExcitation = _excitation_class(RectangularMotion)
+RickerExcitation = _excitation_class(RickerMotion)
+RecordExcitation = _excitation_class(RecordMotion)
+
+
+class NoExcitation(Strict):
+    """No ground motion (free rocking from an initial tilt, or rest)."""
+
+    type: Literal["none"]
+    azimuth_deg: Finite = 0.0
+    vertical: None = None
+
+
+Excitation = Annotated[
+    Union[  # noqa: UP007
+        HalfSineExcitation,  # type: ignore[valid-type]
+        SawtoothExcitation,  # type: ignore[valid-type]
+        OneSineExcitation,  # type: ignore[valid-type]
+        OneCosineExcitation,  # type: ignore[valid-type]
+        RectangularExcitation,  # type: ignore[valid-type]
+        RickerExcitation,  # type: ignore[valid-type]
+        RecordExcitation,  # type: ignore[valid-type]
+        NoExcitation,
+    ],
+    Field(discriminator="type"),
+]
+
+
+class InitialState(Strict):
+    """Initial rocking state in the shaking plane (for free-rocking tests)."""
+
+    theta: Finite = Field(0.0, description="initial rocking angle, rad (positive: top toward +d)")
+    theta_over_alpha: Finite | None = Field(None, description="initial angle as a fraction of α")
+    omega: Finite = Field(0.0, description="initial rocking rate, rad/s")
+
+    @model_validator(mode="after")
+    def _one(self) -> InitialState:
+        if self.theta != 0.0 and self.theta_over_alpha is not None:
+            raise ValueError("give either 'theta' or 'theta_over_alpha', not both")
+        return self
+
+
+class Toppling(Strict):
+    """When a run counts as toppled.
+
+    * ``critical_tilt``: the tilt exceeds ``factor`` × the critical tilt angle α(φ) of the rock
+      in the current tilt direction φ (the seed's θ/α > 1 for a block).
+    * ``tilt_angle``: the tilt exceeds ``angle_deg``.
+    * ``com_displacement``: the horizontal COM displacement exceeds ``distance`` (m).
+    """
+
+    criterion: Literal["critical_tilt", "tilt_angle", "com_displacement"] = "critical_tilt"
+    factor: PositiveFloat = 1.0
+    angle_deg: Annotated[float, Field(gt=0, lt=180)] | None = None
+    distance: PositiveFloat | None = None
+    stop_on_topple: bool = True
+
+    @model_validator(mode="after")
+    def _params(self) -> Toppling:
+        if self.criterion == "tilt_angle" and self.angle_deg is None:
+            raise ValueError("criterion 'tilt_angle' needs 'angle_deg'")
+        if self.criterion == "com_displacement" and self.distance is None:
+            raise ValueError("criterion 'com_displacement' needs 'distance'")
+        return self
+
+
+class Scenario(Strict):
+    """One rock on one pedestal under one ground motion."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9_.\-]+$")
+    description: str = ""
+    gravity: PositiveFloat = Field(9.81, description="m/s²")
+    duration: PositiveFloat = Field(description="simulated time after the start of the excitation, s")
+    settle_time: NonNegFloat = Field(0.5, description="engine settling before t = 0, s")
+    output_dt: PositiveFloat = Field(1e-3, description="sampling of the recorded trajectory, s")
+    seed: int = Field(0, ge=0)
+    rock: Rock
+    pedestal: Pedestal = Field(default_factory=PlanePedestal)
+    contact: Contact = Field(default_factory=Contact)
+    excitation: Excitation
+    initial: InitialState = Field(default_factory=InitialState)
+    toppling: Toppling = Field(default_factory=Toppling)
+    engines: dict[str, dict[str, Any]] = Field(
+        default_factory=dict, description="per-engine settings overrides, e.g. [engines.mujoco]"
+    )
+
+    # where relative paths are resolved (set by load_scenario); not part of the content
+    _base_dir: Path = Path(".")
+    _source: Path | None = None
+
+    # ------------------------------------------------------------------ paths
+    def resolve_path(self, p: str) -> Path:
+        q = Path(p)
+        return q if q.is_absolute() else (self._base_dir / q)
+
+    def referenced_files(self) -> dict[str, Path]:
+        """Key path → file, for every file the scenario refers to."""
+        out: dict[str, Path] = {}
+        if isinstance(self.rock, MeshRock):
+            out["rock.path"] = self.resolve_path(self.rock.path)
+        if isinstance(self.pedestal, MeshPedestal):
+            out["pedestal.path"] = self.resolve_path(self.pedestal.path)
+        if getattr(self.excitation, "type", None) == "record":
+            out["excitation.path"] = self.resolve_path(self.excitation.path)
+        v = getattr(self.excitation, "vertical", None)
+        if v is not None and v.type == "record":
+            out["excitation.vertical.path"] = self.resolve_path(v.path)
+        return out
+
+    @model_validator(mode="after")
+    def _check_engines_table(self) -> Scenario:
+        for k, v in self.engines.items():
+            if not isinstance(v, dict):
+                raise ValueError(f"engines.{k} must be a table of settings, found {v!r}")
+        return self
+
+    # -------------------------------------------------------------- hashing
+    def normalised(self) -> dict[str, Any]:
+        """Content with defaults filled in, JSON types only (the input to the hash)."""
+        return self.model_dump(mode="json", exclude={"description"})
+
+    def content_hash(self) -> str:
+        """SHA-256 over the normalised content and the SHA-256 of every referenced file."""
+        h = hashlib.sha256()
+        h.update(json.dumps(self.normalised(), sort_keys=True, separators=(",", ":")).encode())
+        for key, path in sorted(self.referenced_files().items()):
+            h.update(key.encode())
+            h.update(file_sha256(path).encode())
+        return h.hexdigest()
+
+    # ------------------------------------------------------------- TOML i/o
+    def to_toml(self) -> str:
+        """TOML text of what was set (defaults that were not written stay unwritten)."""
+        return tomli_w.dumps(_drop_none(self.model_dump(mode="json", exclude_unset=True)))
+
+    def with_value(self, key: str, value: Any) -> Scenario:
+        """A copy with one dotted key (e.g. ``excitation.amplitude``) replaced, validated."""
+        data = self.model_dump(mode="json", exclude_unset=True)
+        node = data
+        parts = key.split(".")
+        for p in parts[:-1]:
+            if not isinstance(node.get(p), dict):
+                raise ScenarioError(f"scenario {self.name!r}: no table {p!r} on the way to key {key!r}")
+            node = node[p]
+        node[parts[-1]] = value
+        out = _validate(data, self._source)
+        out._base_dir = self._base_dir
+        out._source = self._source
+        return out
+
+    def get_value(self, key: str) -> Any:
+        node: Any = self
+        for p in key.split("."):
+            if not hasattr(node, p):
+                raise ScenarioError(f"scenario {self.name!r}: no key {key!r} (stopped at {p!r})")
+            node = getattr(node, p)
+        return node
+
+
+def _drop_none(d: Any) -> Any:
+    if isinstance(d, dict):
+        return {k: _drop_none(v) for k, v in d.items() if v is not None}
+    if isinstance(d, list):
+        return [_drop_none(v) for v in d]
+    return d
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+# ------------------------------------------------------------------- loading
+def _model_at(loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    """The pydantic model class that owns the key at ``loc`` (for 'expected one of' hints)."""
+    cls: Any = Scenario
+    i = 0
+    while i < len(loc) - 1:
+        name = loc[i]
+        if not (isinstance(cls, type) and issubclass(cls, BaseModel)) or name not in cls.model_fields:
+            return None
+        ann = cls.model_fields[name].annotation
+        members = [a for a in _union_members(ann) if isinstance(a, type) and issubclass(a, BaseModel)]
+        if len(members) == 1:
+            cls = members[0]
+        else:  # discriminated union: next loc element is the tag
+            tag = loc[i + 1] if i + 1 < len(loc) else None
+            match = [m for m in members if _tag_of(m) == tag]
+            if not match:
+                return None
+            cls = match[0]
+            i += 1
+        i += 1
+    return cls
+
+
+def _union_members(ann: Any) -> list[Any]:
+    origin = typing.get_origin(ann)
+    if origin is Annotated:
+        return _union_members(typing.get_args(ann)[0])
+    if origin in (Union, types.UnionType):
+        out: list[Any] = []
+        for a in typing.get_args(ann):
+            out += _union_members(a)
+        return out
+    return [ann]
+
+
+def _tag_of(cls: type[BaseModel]) -> str | None:
+    for f in ("shape", "kind", "type"):
+        if f in cls.model_fields:
+            args = typing.get_args(cls.model_fields[f].annotation)
+            if args:
+                return args[0]
+    return None
+
+
+def _format_errors(exc: ValidationError, source: Path | None) -> str:
+    where = str(source) if source else "<scenario>"
+    lines = []
+    for err in exc.errors():
+        loc = tuple(err["loc"])
+        key = ".".join(_strip_tags(loc))  # discriminator tags are not keys
+        found = err.get("input")
+        if err["type"] == "extra_forbidden":
+            owner = _model_at(loc)
+            expected = sorted(owner.model_fields) if owner else []
+            msg = f"unknown key; expected one of: {', '.join(expected)}" if expected else "unknown key"
+        elif err["type"] == "missing":
+            msg = "missing required key"
+            found = None
+        else:
+            msg = err["msg"]
+        text = f"{where}: key '{key}': {msg}"
+        if found is not None and not isinstance(found, dict):
+            text += f" (found {found!r})"
+        lines.append(text)
+    return "\n".join(lines)
+
+
+def _strip_tags(loc: tuple[Any, ...]) -> list[str]:
+    out: list[str] = []
+    cls: Any = Scenario
+    i = 0
+    while i < len(loc):
+        part = loc[i]
+        out.append(str(part))
+        if isinstance(cls, type) and issubclass(cls, BaseModel) and part in cls.model_fields:
+            members = [
+                a
+                for a in _union_members(cls.model_fields[part].annotation)
+                if isinstance(a, type) and issubclass(a, BaseModel)
+            ]
+            if len(members) > 1 and i + 1 < len(loc):
+                match = [m for m in members if _tag_of(m) == loc[i + 1]]
+                if match:
+                    cls = match[0]
+                    i += 2
+                    continue
+            cls = members[0] if len(members) == 1 else None
+        else:
+            cls = None
+        i += 1
+    return out
+
+
+def _validate(data: dict[str, Any], source: Path | None) -> Scenario:
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as exc:
+        raise ScenarioError(_format_errors(exc, source)) from None
+
+
+def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
+    """Read and validate a scenario TOML file.
+
+    Raises
+    ------
+    ScenarioError
+        naming the file, the key, what was found and what was expected.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    scn = scenario_from_dict(data, source=path)
+    if check_files:
+        for key, f in scn.referenced_files().items():
+            if not f.is_file():
+                raise ScenarioError(f"{path}: key '{key}': file not found: {f} (expected an existing file)")
+    return scn
+
+
+def scenario_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Scenario:
+    scn = _validate(data, source)
+    if source is not None:
+        scn._base_dir = Path(source).resolve().parent
+        scn._source = Path(source)
+    return scn
+
+
+def save_scenario(scn: Scenario, path: str | Path) -> None:
+    Path(path).write_text(scn.to_toml())
+
+
+def deg(x: float) -> float:
+    return math.radians(x)

@@ -1,0 +1,441 @@
+"""Compile a :class:`~pbr_xval.scenario.Scenario` into the :class:`Scene` engines simulate.
+
+The scene is plain data in SI units, in the *scene frame*: z up, the pedestal surface at z = 0
+under the rock, the rock at rest on it with its centre of mass on the z axis. Ground motion is
+an :class:`~pbr_xval.motion.Excitation3D` (acceleration of the pedestal, m/s²).
+
+Compiling models only what the scene requires and records each choice in
+``Scene.reductions`` (e.g. "box primitive" for a box rock, "plane" for a flat pedestal).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pbr_xval import scenario as sc
+from pbr_xval.geometry.stability import StabilityTable, critical_tilt, uplift_lever
+from pbr_xval.motion.base import Excitation3D, GroundMotion
+
+if TYPE_CHECKING:
+    import trimesh
+
+__all__ = ["PlanarModel", "RockModel", "Scene", "compile_scene"]
+
+
+@dataclass
+class RockModel:
+    """The rigid rock as simulated.
+
+    Attributes
+    ----------
+    shape : the scenario's shape kind.
+    mass : kg.
+    com : (3,) m, scene frame at rest.
+    inertia : (3, 3) kg·m² about the COM, scene axes at rest.
+    mesh : closed trimesh in the scene frame at rest (collision and display).
+    primitive : ``{"type": "box", "half_extents": [...]}`` (body axes) when the rock is a box.
+    box_parts : exact decomposition into boxes ``[(centre (3,), half_extents (3,)), ...]``
+        in the scene frame, when one exists (notched block).
+    rotation : (3, 3) body (primitive/mesh-native) axes → scene axes at rest.
+    info : provenance (source file hash, units, repairs made).
+    """
+
+    shape: str
+    mass: float
+    com: np.ndarray
+    inertia: np.ndarray
+    mesh: trimesh.Trimesh
+    primitive: dict[str, Any] | None = None
+    box_parts: list[tuple[np.ndarray, np.ndarray]] | None = None
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @cached_property
+    def stability(self) -> StabilityTable:
+        """Critical tilt α(φ) and uplift levers on 72 directions."""
+        return StabilityTable(self.mesh.vertices, self.com)
+
+
+@dataclass(frozen=True)
+class PlanarModel:
+    """The rock seen in the shaking plane (x' along the shaking, z up), for 2-D models.
+
+    Pivots are relative to the COM, m; ``inertia`` is about the axis ⟂ to the plane (kg·m²).
+    """
+
+    mass: float
+    inertia: float
+    left: tuple[float, float]
+    right: tuple[float, float]
+
+
+class _Delayed(GroundMotion):
+    """A motion that starts ``delay`` seconds late (zero before)."""
+
+    def __init__(self, base: GroundMotion, delay: float) -> None:
+        self.base, self.delay = base, float(delay)
+        self.name = base.name
+
+    def _acceleration(self, t: np.ndarray) -> np.ndarray:
+        return self.base.acceleration(t - self.delay)
+
+    def _velocity(self, t: np.ndarray) -> np.ndarray:
+        return self.base.velocity(t - self.delay)
+
+    def _displacement(self, t: np.ndarray) -> np.ndarray:
+        return self.base.displacement(t - self.delay)
+
+    @property
+    def duration(self) -> float:
+        return self.base.duration + self.delay
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        return (0.0, *(b + self.delay for b in self.base.breakpoints))
+
+    def describe(self) -> dict[str, Any]:
+        return {**self.base.describe(), "start_time": self.delay}
+
+
+class _Zero(GroundMotion):
+    name = "none"
+
+    def _acceleration(self, t: np.ndarray) -> np.ndarray:
+        return np.zeros_like(t)
+
+    _velocity = _acceleration
+    _displacement = _acceleration
+
+    @property
+    def duration(self) -> float:
+        return 0.0
+
+    def describe(self) -> dict[str, Any]:
+        return {"type": "none"}
+
+
+@dataclass
+class Scene:
+    """Everything an engine needs, engine-neutral, SI units.
+
+    Attributes
+    ----------
+    name, scenario_hash : identity and provenance of the source scenario.
+    rock : :class:`RockModel`.
+    pedestal : ``{"kind": "plane"}``, ``{"kind": "box", "half_extents": [...]}`` (top at z = 0)
+        or ``{"kind": "mesh", "mesh": trimesh}``.
+    mu_s, mu_d, restitution : contact parameters.
+    gravity : m/s² (magnitude, along −z).
+    excitation : pedestal acceleration, :class:`Excitation3D`.
+    direction : (3,) unit horizontal shaking direction.
+    duration, settle_time, output_dt : s.
+    theta0, omega0 : initial rocking angle (rad) and rate (rad/s) in the shaking plane.
+    toppling : the scenario's toppling criterion.
+    engine_settings : per-engine overrides from the scenario.
+    reductions : list of {"what", "choice", "why"} records of modelling choices.
+    """
+
+    name: str
+    scenario_hash: str
+    scenario: sc.Scenario
+    rock: RockModel
+    pedestal: dict[str, Any]
+    mu_s: float
+    mu_d: float
+    restitution: float
+    gravity: float
+    excitation: Excitation3D
+    direction: np.ndarray
+    duration: float
+    settle_time: float
+    output_dt: float
+    seed: int
+    theta0: float
+    omega0: float
+    toppling: sc.Toppling
+    engine_settings: dict[str, dict[str, Any]]
+    reductions: list[dict[str, str]] = field(default_factory=list)
+
+    # ------------------------------------------------------------ geometry
+    @property
+    def azimuth(self) -> float:
+        """Shaking direction, rad from +x toward +y."""
+        return float(math.atan2(self.direction[1], self.direction[0]))
+
+    @property
+    def rocking_axis(self) -> np.ndarray:
+        """(3,) unit axis ez × d: a positive rotation about it moves the top toward +d."""
+        return np.cross([0.0, 0.0, 1.0], self.direction)
+
+    @cached_property
+    def alpha(self) -> tuple[float, float]:
+        """Critical tilt angles (rad) toward −d and +d (the 'left' and 'right' sides)."""
+        v, c, d = self.rock.mesh.vertices, self.rock.com, self.direction
+        return critical_tilt(v, c, -d), critical_tilt(v, c, d)
+
+    def uplift_accel(self, sign: float = 1.0) -> float:
+        """Quasi-static pedestal acceleration (m/s²) along ``sign``·d that starts rocking.
+
+        A pedestal accelerating along +d tips the rock toward −d.
+        """
+        b, h = uplift_lever(self.rock.mesh.vertices, self.rock.com, -sign * self.direction)
+        return self.gravity * b / h
+
+    def planar_model(self) -> PlanarModel:
+        """The rock as a planar two-pivot body in the shaking plane.
+
+        Raises
+        ------
+        NotApplicable
+            when the rock does not rock on two edges ⟂ to the shaking (e.g. a box shaken
+            along a diagonal, or a rock whose inertia couples in- and out-of-plane motion).
+        """
+        from pbr_xval.engine import NotApplicable
+        from pbr_xval.geometry.stability import hull_vertices, support_points
+
+        d, e = self.direction, self.rocking_axis
+        sp = support_points(hull_vertices(self.rock.mesh.vertices)) - self.rock.com
+        xs = sp @ d
+        size = float(np.ptp(self.rock.mesh.vertices))
+        for side, xv in (("left", xs.min()), ("right", xs.max())):
+            edge = sp[np.abs(xs - xv) <= 1e-9 * size]
+            if len(edge) < 2 or np.ptp(edge @ e) <= 1e-6 * size:
+                raise NotApplicable(
+                    f"scene {self.name!r}: the rock does not pivot on an edge ⟂ to the shaking on the {side} "
+                    f"(it would rock about a corner); a planar model does not apply — use a 3-D engine"
+                )
+        i = self.rock.inertia
+        coupling = np.linalg.norm(i @ e - (e @ i @ e) * e) / (e @ i @ e)
+        if coupling > 1e-6:
+            raise NotApplicable(
+                f"scene {self.name!r}: the rock's inertia couples rocking in the shaking plane with "
+                f"out-of-plane motion (relative product of inertia {coupling:.2e}); a planar model does not apply"
+            )
+        h = float(self.rock.com[2] - (sp[:, 2].min() + self.rock.com[2]))
+        return PlanarModel(
+            mass=self.rock.mass,
+            inertia=float(e @ i @ e),
+            left=(float(xs.min()), -h),
+            right=(float(xs.max()), -h),
+        )
+
+    def is_toppled(self, com: np.ndarray, rot: np.ndarray) -> bool:
+        """Apply the toppling criterion to one state.
+
+        Parameters
+        ----------
+        com : (3,) m — COM position (pedestal frame).
+        rot : (3, 3) — rotation of the rock relative to its rest pose.
+        """
+        crit = self.toppling
+        if crit.criterion == "com_displacement":
+            return bool(np.hypot(com[0] - self.rock.com[0], com[1] - self.rock.com[1]) >= crit.distance)
+        top = rot[:, 2]
+        tilt = math.acos(max(-1.0, min(1.0, float(top[2]))))
+        if crit.criterion == "tilt_angle":
+            return tilt >= math.radians(crit.angle_deg)
+        if tilt < 1e-9:
+            return False
+        phi = math.atan2(top[1], top[0])
+        return tilt >= crit.factor * float(self.rock.stability.alpha_at(phi))
+
+    def info(self) -> dict[str, Any]:
+        """Facts every Trajectory carries in ``scene_info``."""
+        a_left, a_right = self.alpha
+        return {
+            "name": self.name,
+            "rock_shape": self.rock.shape,
+            "mass_kg": self.rock.mass,
+            "com_m": self.rock.com.tolist(),
+            "alpha_left_rad": a_left,
+            "alpha_right_rad": a_right,
+            "uplift_accel_m_s2": self.uplift_accel(1.0),
+            "azimuth_rad": self.azimuth,
+            "gravity": self.gravity,
+            "excitation": self.excitation.describe(),
+            "reductions": list(self.reductions),
+            "rock_info": dict(self.rock.info),
+        }
+
+
+# --------------------------------------------------------------------- compile
+def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel:
+    from pbr_xval.geometry import shapes
+
+    rock = scn.rock
+    yaw = math.radians(rock.yaw_deg)
+    rz = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    primitive = None
+    box_parts = None
+    info: dict[str, Any] = {}
+    if isinstance(rock, sc.BoxRock):
+        mesh = shapes.box_mesh(np.array(rock.half_extents))
+        primitive = {"type": "box", "half_extents": list(rock.half_extents)}
+        reductions.append({"what": "rock collision", "choice": "box primitive", "why": "the rock is a box"})
+    elif isinstance(rock, sc.NotchedBlockRock):
+        mesh = shapes.notched_block_mesh(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
+        box_parts = shapes.notched_block_boxes(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
+        reductions.append(
+            {"what": "rock collision", "choice": "3 box parts", "why": "the notched block is exactly 3 boxes"}
+        )
+    elif isinstance(rock, sc.CurvedBaseRock):
+        mesh = shapes.curved_base_mesh(rock.H, rock.r, rock.h, rock.depth, rock.arc_segments)
+        reductions.append(
+            {
+                "what": "rock collision",
+                "choice": f"extruded profile, {rock.arc_segments} facets per quarter arc",
+                "why": "3-D engines need a mesh of the curved base",
+            }
+        )
+    elif isinstance(rock, sc.MeshRock):
+        from pbr_xval.geometry.mesh import load_rock_mesh
+
+        mesh, info = load_rock_mesh(scn.resolve_path(rock.path), units=rock.units, orientation=rock.orientation)
+        reductions.append({"what": "rock collision", "choice": "convex hull", "why": "default for a mesh rock"})
+    else:  # pragma: no cover - the union is closed
+        raise TypeError(type(rock))
+
+    if yaw:
+        mesh.apply_transform(np.block([[rz, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
+        if box_parts is not None:
+            box_parts = [(rz @ c, h) for c, h in box_parts]
+    volume = float(mesh.volume)
+    if not (volume > 0):
+        raise sc.ScenarioError(f"scenario {scn.name!r}: key 'rock': the rock mesh has volume {volume} m³ (expected > 0)")
+    density = rock.density if rock.density is not None else rock.mass / volume
+    mesh.density = density
+    mp = mesh.mass_properties
+    com = np.asarray(mp["center_mass"], dtype=float)
+    inertia = np.asarray(mp["inertia"], dtype=float)
+    if isinstance(rock, sc.MeshRock) and rock.inertia is not None:
+        ixx, iyy, izz, ixy, ixz, iyz = rock.inertia
+        inertia = rz @ np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]) @ rz.T
+        info["inertia_source"] = "scenario"
+    # put the COM on the z axis; the base already sits on z = 0
+    shift = np.array([-com[0], -com[1], -mesh.bounds[0, 2]])
+    mesh.apply_translation(shift)
+    com = com + shift
+    if box_parts is not None:
+        box_parts = [(c + shift, h) for c, h in box_parts]
+    info.update(volume_m3=volume, density_kg_m3=density)
+    return RockModel(
+        shape=rock.shape,
+        mass=float(mp["mass"]),
+        com=com,
+        inertia=inertia,
+        mesh=mesh,
+        primitive=primitive,
+        box_parts=box_parts,
+        rotation=rz,
+        info=info,
+    )
+
+
+def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
+    from pbr_xval.motion import pulses, records
+    from pbr_xval.motion.processing import scale_to_pga, scale_to_pgv
+
+    t = spec.type
+    if t == "half_sine":
+        if spec.phase == "housner_uplift":
+            if uplift is None:
+                raise sc.ScenarioError(f"scenario {scn.name!r}: 'housner_uplift' phase is only for horizontal motion")
+            m: GroundMotion = pulses.HalfSine.housner(spec.amplitude, uplift, spec.frequency)
+        else:
+            m = pulses.HalfSine(spec.amplitude, spec.frequency, spec.phase)
+    elif t == "sawtooth":
+        m = pulses.Sawtooth(spec.pgv, spec.period, spec.skew)
+    elif t == "one_sine":
+        m = pulses.OneSine(spec.amplitude, spec.frequency)
+    elif t == "one_cosine":
+        m = pulses.OneCosine(spec.amplitude, spec.frequency)
+    elif t == "rectangular":
+        m = pulses.Rectangular(spec.amplitude, spec.pulse_duration)
+    elif t == "ricker":
+        m = pulses.Ricker(spec.amplitude, spec.frequency, spec.t0)
+    elif t == "record":
+        kw: dict[str, Any] = {}
+        if spec.format in ("auto", "table") and not scn.resolve_path(spec.path).suffix.lower() == ".at2":
+            kw = {"dt": spec.dt, "units": spec.units}
+        m = records.read_record(scn.resolve_path(spec.path), format=spec.format, **kw)
+        if spec.target_pga is not None:
+            m = scale_to_pga(m, spec.target_pga)
+        elif spec.target_pgv is not None:
+            m = scale_to_pgv(m, spec.target_pgv)
+        factor = spec.scale * spec.sign
+        if factor != 1.0:
+            m = m.scaled(factor)
+    elif t == "none":
+        return _Zero()
+    else:  # pragma: no cover
+        raise TypeError(t)
+    if spec.start_time:
+        m = _Delayed(m, spec.start_time)
+    return m
+
+
+def compile_scene(scn: sc.Scenario) -> Scene:
+    """Build the :class:`Scene` for ``scn``, recording every modelling choice."""
+    reductions: list[dict[str, str]] = []
+    rock = _rock_model(scn, reductions)
+    az = math.radians(scn.excitation.azimuth_deg)
+    direction = np.array([math.cos(az), math.sin(az), 0.0])
+    if abs(direction[0]) < 1e-15:
+        direction[0] = 0.0
+    if abs(direction[1]) < 1e-15:
+        direction[1] = 0.0
+
+    ped = scn.pedestal
+    if isinstance(ped, sc.PlanePedestal):
+        pedestal: dict[str, Any] = {"kind": "plane"}
+        reductions.append({"what": "pedestal", "choice": "plane", "why": "flat pedestal"})
+    elif isinstance(ped, sc.BoxPedestal):
+        pedestal = {"kind": "box", "half_extents": list(ped.half_extents)}
+    else:
+        from pbr_xval.geometry.mesh import load_mesh
+
+        pm, pinfo = load_mesh(scn.resolve_path(ped.path), units=ped.units)
+        pedestal = {"kind": "mesh", "mesh": pm, "info": pinfo}
+
+    # uplift acceleration of a positive pulse along +d (tips the rock toward -d)
+    b, h = uplift_lever(rock.mesh.vertices, rock.com, -direction)
+    uplift = scn.gravity * b / h
+    horiz = _motion(scn.excitation, scn, uplift)
+    vert = _motion(scn.excitation.vertical, scn, None) if scn.excitation.vertical is not None else None
+    excitation = Excitation3D(horiz, az, vert)
+
+    theta0 = scn.initial.theta
+    if scn.initial.theta_over_alpha is not None:
+        a_left, a_right = critical_tilt(rock.mesh.vertices, rock.com, -direction), critical_tilt(
+            rock.mesh.vertices, rock.com, direction
+        )
+        f = scn.initial.theta_over_alpha
+        theta0 = f * (a_right if f >= 0 else a_left)
+
+    return Scene(
+        name=scn.name,
+        scenario_hash=scn.content_hash(),
+        scenario=scn,
+        rock=rock,
+        pedestal=pedestal,
+        mu_s=scn.contact.friction_static,
+        mu_d=scn.contact.mu_d,
+        restitution=scn.contact.restitution,
+        gravity=scn.gravity,
+        excitation=excitation,
+        direction=direction,
+        duration=scn.duration,
+        settle_time=scn.settle_time,
+        output_dt=scn.output_dt,
+        seed=scn.seed,
+        theta0=float(theta0),
+        omega0=float(scn.initial.omega),
+        toppling=scn.toppling,
+        engine_settings={k: dict(v) for k, v in scn.engines.items()},
+        reductions=reductions,
+    )
