@@ -531,6 +531,11 @@ def get_engine(name: str | type | Engine) -> Engine:
     try:
         cls = getattr(importlib.import_module(module), attr)
     except ImportError as exc:
+        if (exc.name or "").startswith("pbr_xval"):
+            raise EngineNotAvailable(
+                f"engine {name!r} is registered as {eps[name]!r} but {exc.name!r} cannot be imported ({exc}); "
+                "reinstall pbr-xval"
+            ) from exc
         pkg = KNOWN_ENGINES.get(name, exc.name or "?")
         raise EngineNotAvailable(
             f"engine {name!r} needs the package {pkg!r}, which could not be imported ({exc}). "

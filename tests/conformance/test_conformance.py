@@ -1,0 +1,43 @@
+"""Every registered engine through the shared analytical cases (pbr_xval.conformance).
+
+Known gaps are declared on the engine class as ``expected_failures = {check: reason}`` and
+run as strict xfail, so a gap that closes is noticed. Engines whose package is missing skip.
+"""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from pbr_xval import conformance
+from pbr_xval.engine import EngineNotAvailable, get_engine, registered_names
+
+SLOW_CHECKS = {"free_rocking_rebound", "mesh_box", "notched_block"}
+
+
+def _cases():
+    for engine in registered_names():
+        for name, check in conformance.CHECKS.items():
+            marks = []
+            if name in SLOW_CHECKS and engine not in ("housner",):
+                marks.append(pytest.mark.slow)
+            yield pytest.param(engine, name, id=f"{engine}-{name}", marks=marks)
+
+
+@pytest.mark.parametrize(("engine", "check"), list(_cases()))
+def test_conformance(engine: str, check: str, request: pytest.FixtureRequest) -> None:
+    try:
+        eng = get_engine(engine)
+    except EngineNotAvailable as exc:
+        pytest.skip(str(exc))
+    c = conformance.CHECKS[check]
+    why = conformance.applicable(engine, c)
+    if why:
+        pytest.skip(why)
+    gaps = getattr(eng, "expected_failures", {}) or {}
+    if check in gaps:
+        request.applymarker(pytest.mark.xfail(reason=gaps[check], strict=True, raises=AssertionError))
+    out = c.func(engine)
+    if os.environ.get("PBR_XVAL_VERBOSE"):
+        print(engine, check, out)
