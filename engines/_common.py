@@ -21,14 +21,14 @@ import numpy as np
 
 from pbr_xval.engine import Event, Trajectory
 
-__all__ = ["Recorder", "StderrCapture", "matrix_to_quat", "n_steps"]
+__all__ = ["Recorder", "StderrCapture", "initial_pose", "matrices_to_quats", "matrix_to_quat", "n_steps"]
 
 GROUND_MODES = ("inertial", "moving_pedestal")
 
 
 def n_steps(duration: float, dt: float) -> int:
     """Number of steps of size ``dt`` (s) that cover ``duration`` (s)."""
-    return int(math.ceil(duration / dt - 1e-9))
+    return math.ceil(duration / dt - 1e-9)
 
 
 def matrix_to_quat(r: np.ndarray) -> np.ndarray:
@@ -53,6 +53,34 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     return qa / np.linalg.norm(qa)
 
 
+def matrices_to_quats(r: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`matrix_to_quat`: (n, 3, 3) rotations → (n, 4) scalar-first quaternions.
+
+    Each row uses the numerically best of Shepperd's four branches (largest diagonal term).
+    """
+    m = np.asarray(r, dtype=float).reshape(-1, 3, 3)
+    n = m.shape[0]
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    cand = np.stack([tr, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    k = np.argmax(cand, axis=1)
+    q = np.empty((n, 4))
+    d21, d02, d10 = m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0], m[:, 1, 0] - m[:, 0, 1]
+    s01, s02, s12 = m[:, 0, 1] + m[:, 1, 0], m[:, 0, 2] + m[:, 2, 0], m[:, 1, 2] + m[:, 2, 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s0 = 2.0 * np.sqrt(np.maximum(tr + 1.0, 0.0))
+        s1 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], 0.0))
+        s2 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2], 0.0))
+        s3 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1], 0.0))
+        b0 = np.stack([0.25 * s0, d21 / s0, d02 / s0, d10 / s0], axis=1)
+        b1 = np.stack([d21 / s1, 0.25 * s1, s01 / s1, s02 / s1], axis=1)
+        b2 = np.stack([d02 / s2, s01 / s2, 0.25 * s2, s12 / s2], axis=1)
+        b3 = np.stack([d10 / s3, s02 / s3, s12 / s3, 0.25 * s3], axis=1)
+    for i, b in enumerate((b0, b1, b2, b3)):
+        q[k == i] = b[k == i]
+    q[q[:, 0] < 0] *= -1.0
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
 @dataclass
 class Recorder:
     """Collects the rock state during a run and turns it into a :class:`Trajectory`.
@@ -62,6 +90,10 @@ class Recorder:
     the last step. The recorder applies the scene's toppling criterion and flags NaN or
     explosion (a COM beyond ``explode_factor`` × the rock size from its rest position, or a
     speed beyond ``max_speed`` m/s).
+
+    The per-step cost is kept small (it runs once per engine step): the toppling test is a
+    dot product until the tilt exceeds the smallest critical angle of the rock, and rotations
+    are converted to quaternions once, at the end.
     """
 
     scene: Any
@@ -70,25 +102,41 @@ class Recorder:
     max_speed: float = 1e3
     t: list[float] = field(default_factory=list)
     com: list[np.ndarray] = field(default_factory=list)
-    quat: list[np.ndarray] = field(default_factory=list)
+    rot: list[np.ndarray] = field(default_factory=list)
     omega: list[np.ndarray] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
     contacts: list[int] = field(default_factory=list)
     max_penetration: float = 0.0
-    energy: list[float] = field(default_factory=list)
     failed: str = ""
     _r0t: np.ndarray = field(default_factory=lambda: np.eye(3))
+    _z0: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     _com0: np.ndarray = field(default_factory=lambda: np.zeros(3))
     _next_out: float = 0.0
     _size: float = 1.0
+    _max_dist2: float = 1.0
+    _max_omega2: float = 1.0
+    _cos_fast: float = 1.0
+    _cos_uplift: float = math.cos(1e-4)
     _toppled: bool = False
     _uplifted: bool = False
 
     def start(self, com0: np.ndarray, rot0: np.ndarray) -> None:
         """Rest pose after settling: COM (3,) m and rotation (3, 3) of the rock body."""
-        self._r0t = np.asarray(rot0, dtype=float).T.copy()
+        self._r0t = np.ascontiguousarray(np.asarray(rot0, dtype=float).T)
+        # rel = R R0ᵀ, so the image of the rest vertical is R @ (R0ᵀ)[:, 2]
+        self._z0 = np.ascontiguousarray(self._r0t[:, 2])
         self._com0 = np.asarray(com0, dtype=float).copy()
         self._size = float(np.ptp(self.scene.rock.mesh.vertices))
+        self._max_dist2 = (self.explode_factor * self._size) ** 2
+        self._max_omega2 = (self.max_speed / self._size) ** 2
+        crit = self.scene.toppling
+        if crit.criterion == "critical_tilt":
+            fast = crit.factor * float(np.min(self.scene.rock.stability.alpha))
+        elif crit.criterion == "tilt_angle":
+            fast = math.radians(crit.angle_deg)
+        else:
+            fast = math.pi
+        self._cos_fast = math.cos(min(fast, math.pi))
         self._next_out = 0.0
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
@@ -116,36 +164,43 @@ class Recorder:
         omega : (3,) rad/s, pedestal frame.
         """
         com = np.asarray(com, dtype=float)
+        rot = np.asarray(rot, dtype=float).reshape(3, 3)
         omega = np.asarray(omega, dtype=float)
-        rel = self.relative_rotation(rot)
         if n_contacts is not None:
             self.contacts.append(int(n_contacts))
-        if penetration is not None:
-            self.max_penetration = max(self.max_penetration, float(penetration))
-        if not (np.all(np.isfinite(com)) and np.all(np.isfinite(rel)) and np.all(np.isfinite(omega))):
+        if penetration is not None and penetration > self.max_penetration:
+            self.max_penetration = float(penetration)
+        top = rot @ self._z0
+        dc = com - self._com0
+        dist2 = float(dc @ dc)
+        om2 = float(omega @ omega)
+        cos_tilt = float(top[2])
+        if not math.isfinite(dist2 + om2 + cos_tilt + float(top[0] + top[1])):
             self.failed = f"NaN in the state at t = {t:.6g} s"
-        elif np.linalg.norm(com - self._com0) > self.explode_factor * self._size:
-            self.failed = f"explosion: the COM moved {np.linalg.norm(com - self._com0):.3g} m at t = {t:.6g} s"
-        elif np.linalg.norm(omega) * self._size > self.max_speed:
-            self.failed = f"explosion: angular speed {np.linalg.norm(omega):.3g} rad/s at t = {t:.6g} s"
+        elif dist2 > self._max_dist2:
+            self.failed = f"explosion: the COM moved {math.sqrt(dist2):.3g} m at t = {t:.6g} s"
+        elif om2 > self._max_omega2:
+            self.failed = f"explosion: angular speed {math.sqrt(om2):.3g} rad/s at t = {t:.6g} s"
         if self.failed:
             self.events.append(Event("failed", t, {"reason": self.failed}))
             return True
         stop = False
-        if not self._uplifted and math.acos(min(1.0, max(-1.0, rel[2, 2]))) > 1e-4:
+        if not self._uplifted and cos_tilt < self._cos_uplift:
             self._uplifted = True
-            self.events.append(Event("uplift", t, {"tilt_rad": math.acos(min(1.0, rel[2, 2]))}))
-        if not self._toppled and self.scene.is_toppled(com, rel):
-            self._toppled = True
-            self.events.append(Event("toppled", t, {}))
-            stop = bool(self.scene.toppling.stop_on_topple)
+            self.events.append(Event("uplift", t, {"tilt_rad": math.acos(min(1.0, cos_tilt))}))
+        if not self._toppled and (cos_tilt < self._cos_fast or self.scene.toppling.criterion == "com_displacement"):
+            if self.scene.is_toppled(com, self.relative_rotation(rot)):
+                self._toppled = True
+                self.events.append(Event("toppled", t, {}))
+                stop = bool(self.scene.toppling.stop_on_topple)
         if force or stop or t >= self._next_out - 1e-9 * self.dt:
             self.t.append(float(t))
-            self.com.append(com.copy())
-            self.quat.append(matrix_to_quat(rel))
-            self.omega.append(omega.copy())
+            self.com.append(np.array(com, dtype=float))
+            self.rot.append(np.array(rot, dtype=float))
+            self.omega.append(np.array(omega, dtype=float))
+            out_dt = self.scene.output_dt
             while self._next_out <= t + 1e-9 * self.dt:
-                self._next_out += self.scene.output_dt
+                self._next_out += out_dt
         return stop
 
     def trajectory(
@@ -165,11 +220,12 @@ class Recorder:
         }
         diag.update(diagnostics or {})
         n = len(self.t)
+        rel = np.asarray(self.rot, dtype=float).reshape(n, 3, 3) @ self._r0t
         traj = Trajectory(
             engine=engine,
             t=np.asarray(self.t, dtype=float),
             com=np.asarray(self.com, dtype=float).reshape(n, 3),
-            quat=np.asarray(self.quat, dtype=float).reshape(n, 4),
+            quat=matrices_to_quats(rel).reshape(n, 4),
             omega=np.asarray(self.omega, dtype=float).reshape(n, 3),
             events=list(self.events),
             diagnostics=diag,
