@@ -114,12 +114,12 @@ def test_density_xor_mass() -> None:
     with pytest.raises(ScenarioError, match="either 'density' or 'mass'"):
         scenario_from_dict(data)
     del data["rock"]["mass"], data["rock"]["density"]
-    with pytest.raises(ScenarioError, match="'density'.*or 'mass'"):
+    with pytest.raises(ScenarioError, match=r"'density'.*or 'mass'"):
         scenario_from_dict(data)
 
 
 def test_with_value_validates() -> None:
     scn = scenario_from_dict(tomllib.loads(BASE))
     assert scn.with_value("excitation.amplitude", 6.5).excitation.amplitude == 6.5
-    with pytest.raises(ScenarioError, match="excitation.amplitude"):
+    with pytest.raises(ScenarioError, match=r"excitation\.amplitude"):
         scn.with_value("excitation.amplitude", -1.0)

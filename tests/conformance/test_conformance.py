@@ -13,12 +13,12 @@ import pytest
 from pbr_xval import conformance
 from pbr_xval.engine import EngineNotAvailable, get_engine, registered_names
 
-SLOW_CHECKS = {"free_rocking_rebound", "mesh_box", "notched_block"}
+SLOW_CHECKS = {"free_rocking_rebound", "mesh_box", "notched_block", "notched_rebound"}
 
 
 def _cases():
     for engine in registered_names():
-        for name, check in conformance.CHECKS.items():
+        for name, _check in conformance.CHECKS.items():
             marks = []
             if name in SLOW_CHECKS and engine not in ("housner",):
                 marks.append(pytest.mark.slow)
