@@ -33,14 +33,14 @@ __all__ = [
 ]
 
 
-def compile_scene(scenario):  # noqa: ANN001, ANN201 - thin lazy wrapper
+def compile_scene(scenario):
     """Compile a scenario into a Scene (see :func:`pbr_xval.scene.compile_scene`)."""
     from pbr_xval.scene import compile_scene as _compile
 
     return _compile(scenario)
 
 
-def simulate(scenario, engine: str, settings=None):  # noqa: ANN001, ANN201
+def simulate(scenario, engine: str, settings=None):
     """Compile ``scenario`` and simulate it with ``engine``; returns a Trajectory.
 
     ``settings`` overrides the scenario's ``[engines.<engine>]`` table, which overrides the

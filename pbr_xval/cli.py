@@ -36,7 +36,7 @@ def _parse_sets(items: list[str] | None) -> dict[str, Any]:
     return out
 
 
-def _load(path: Path):  # noqa: ANN202
+def _load(path: Path):
     from pbr_xval.scenario import ScenarioError, load_scenario
 
     try:
@@ -89,7 +89,7 @@ def check(scenario: Path) -> None:
     console.print_json(json.dumps(scn.normalised()))
     info = scene.info()
     console.print(
-        f"rock: {info['rock_shape']}, mass {info['mass_kg']:.6g} kg, COM {['%.4g' % c for c in info['com_m']]} m; "
+        f"rock: {info['rock_shape']}, mass {info['mass_kg']:.6g} kg, COM {[f'{c:.4g}' for c in info['com_m']]} m; "
         f"critical tilt toward −d/+d: {info['alpha_left_rad']:.6g} / {info['alpha_right_rad']:.6g} rad; "
         f"uplift acceleration {info['uplift_accel_m_s2']:.6g} m/s²"
     )

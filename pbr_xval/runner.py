@@ -10,7 +10,7 @@ from pbr_xval.engine import Engine, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.scene import Scene, compile_scene
 
-__all__ = ["effective_settings", "run_scene", "run_scenario"]
+__all__ = ["effective_settings", "run_scenario", "run_scene"]
 
 
 def effective_settings(engine: Engine, scene: Scene, overrides: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -84,7 +84,7 @@ def load_rock_mesh(
     if not (abs(mesh.volume) > 1e-12 * max(1.0, float(np.ptp(mesh.vertices))) ** 3):
         raise MeshError(f"{path}: the mesh encloses zero volume; expected a solid")
     if orientation == "stable":
-        transforms, probs = trimesh.poses.compute_stable_poses(mesh, n_samples=1)
+        transforms, _probs = trimesh.poses.compute_stable_poses(mesh, n_samples=1)
         # lowest centre of mass among the hull's stable faces
         best = None
         for tf in transforms:

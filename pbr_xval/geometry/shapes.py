@@ -13,8 +13,8 @@ import trimesh
 
 __all__ = [
     "box_mesh",
-    "curved_base_outline",
     "curved_base_mesh",
+    "curved_base_outline",
     "extrude_profile",
     "notched_block_boxes",
     "notched_block_mesh",
