@@ -101,9 +101,9 @@ class Recorder:
     explode_factor: float = 50.0
     max_speed: float = 1e3
     t: list[float] = field(default_factory=list)
-    com: list[np.ndarray] = field(default_factory=list)
-    rot: list[np.ndarray] = field(default_factory=list)
-    omega: list[np.ndarray] = field(default_factory=list)
+    com: list[list[float]] = field(default_factory=list)
+    rot: list[list[float]] = field(default_factory=list)
+    omega: list[list[float]] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
     contacts: list[int] = field(default_factory=list)
     max_penetration: float = 0.0
@@ -119,6 +119,11 @@ class Recorder:
     _cos_uplift: float = math.cos(1e-4)
     _toppled: bool = False
     _uplifted: bool = False
+    _by_distance: bool = False
+    _z0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    _com0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    _out_dt: float = 1e-3
+    _eps_t: float = 1e-12
 
     def start(self, com0: np.ndarray, rot0: np.ndarray) -> None:
         """Rest pose after settling: COM (3,) m and rotation (3, 3) of the rock body."""
@@ -137,6 +142,11 @@ class Recorder:
         else:
             fast = math.pi
         self._cos_fast = math.cos(min(fast, math.pi))
+        self._by_distance = crit.criterion == "com_displacement"
+        self._z0l = self._z0.tolist()
+        self._com0l = self._com0.tolist()
+        self._out_dt = float(self.scene.output_dt)
+        self._eps_t = 1e-9 * self.dt
         self._next_out = 0.0
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
@@ -163,19 +173,22 @@ class Recorder:
         rot : (3, 3) body rotation (engine body frame → pedestal frame).
         omega : (3,) rad/s, pedestal frame.
         """
-        com = np.asarray(com, dtype=float)
-        rot = np.asarray(rot, dtype=float).reshape(3, 3)
-        omega = np.asarray(omega, dtype=float)
+        # plain Python floats: numpy calls on 3-vectors cost more than the arithmetic
+        c = com.tolist() if isinstance(com, np.ndarray) else [float(x) for x in com]
+        r = rot.ravel().tolist() if isinstance(rot, np.ndarray) else np.asarray(rot, dtype=float).ravel().tolist()
+        w = omega.tolist() if isinstance(omega, np.ndarray) else [float(x) for x in omega]
         if n_contacts is not None:
             self.contacts.append(int(n_contacts))
         if penetration is not None and penetration > self.max_penetration:
             self.max_penetration = float(penetration)
-        top = rot @ self._z0
-        dc = com - self._com0
-        dist2 = float(dc @ dc)
-        om2 = float(omega @ omega)
-        cos_tilt = float(top[2])
-        if not math.isfinite(dist2 + om2 + cos_tilt + float(top[0] + top[1])):
+        zx, zy, zz = self._z0l
+        top0 = r[0] * zx + r[1] * zy + r[2] * zz
+        top1 = r[3] * zx + r[4] * zy + r[5] * zz
+        cos_tilt = r[6] * zx + r[7] * zy + r[8] * zz
+        x0, y0, z0 = self._com0l
+        dist2 = (c[0] - x0) ** 2 + (c[1] - y0) ** 2 + (c[2] - z0) ** 2
+        om2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        if not math.isfinite(dist2 + om2 + cos_tilt + top0 + top1):
             self.failed = f"NaN in the state at t = {t:.6g} s"
         elif dist2 > self._max_dist2:
             self.failed = f"explosion: the COM moved {math.sqrt(dist2):.3g} m at t = {t:.6g} s"
@@ -188,19 +201,19 @@ class Recorder:
         if not self._uplifted and cos_tilt < self._cos_uplift:
             self._uplifted = True
             self.events.append(Event("uplift", t, {"tilt_rad": math.acos(min(1.0, cos_tilt))}))
-        if not self._toppled and (cos_tilt < self._cos_fast or self.scene.toppling.criterion == "com_displacement"):
-            if self.scene.is_toppled(com, self.relative_rotation(rot)):
+        if not self._toppled and (cos_tilt < self._cos_fast or self._by_distance):
+            rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+            if self.scene.is_toppled(np.asarray(c), rel):
                 self._toppled = True
                 self.events.append(Event("toppled", t, {}))
                 stop = bool(self.scene.toppling.stop_on_topple)
-        if force or stop or t >= self._next_out - 1e-9 * self.dt:
+        if force or stop or t >= self._next_out - self._eps_t:
             self.t.append(float(t))
-            self.com.append(np.array(com, dtype=float))
-            self.rot.append(np.array(rot, dtype=float))
-            self.omega.append(np.array(omega, dtype=float))
-            out_dt = self.scene.output_dt
-            while self._next_out <= t + 1e-9 * self.dt:
-                self._next_out += out_dt
+            self.com.append(c)
+            self.rot.append(r)
+            self.omega.append(w)
+            while self._next_out <= t + self._eps_t:
+                self._next_out += self._out_dt
         return stop
 
     def trajectory(

@@ -31,7 +31,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-from pbr_xval.engines._common import GROUND_MODES, Recorder, initial_pose, n_steps
 
 from pbr_xval.engine import (
     KNOWN_ENGINES,
@@ -42,6 +41,7 @@ from pbr_xval.engine import (
     NotApplicable,
     Trajectory,
 )
+from pbr_xval.engines._common import GROUND_MODES, Recorder, initial_pose, n_steps
 
 __all__ = ["MuJoCoEngine"]
 
