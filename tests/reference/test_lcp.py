@@ -12,6 +12,8 @@ import itertools
 
 import numpy as np
 import pytest
+from scipy.optimize import minimize, nnls
+
 from pbr_xval.reference.lcp import (
     FrictionResult,
     LCPResult,
@@ -22,7 +24,6 @@ from pbr_xval.reference.lcp import (
     solve_lcp,
     solve_lcp_min_norm,
 )
-from scipy.optimize import minimize, nnls
 
 SOLVERS = [lemke, dantzig]
 G = 9.81
