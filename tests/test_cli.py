@@ -61,3 +61,25 @@ def test_engines_lists_registry() -> None:
 def test_unknown_setting_is_a_clear_error() -> None:
     res = runner.invoke(app, ["run", HOUSNER, "--engine", "housner", "--set", "rtoll=1"])
     assert res.exit_code == 2 and "unknown setting 'rtoll'" in res.output
+
+
+def test_rock_command_on_a_synthetic_rock(tmp_path: Path) -> None:
+    from pbr_xval.geometry.synthetic import synthetic_rock
+
+    mesh, _ = synthetic_rock(seed=3)
+    path = tmp_path / "rock.obj"
+    mesh.export(path)
+    out = tmp_path / "rep"
+    res = runner.invoke(app, ["rock", str(path), "--out", str(out), "--density", "2600"])
+    assert res.exit_code == 0, res.output
+    data = json.loads((out / "rock.json").read_text())
+    assert data["mass_kg"] == pytest.approx(2600 * mesh.volume, rel=1e-6)
+    assert (out / "polar.png").stat().st_size > 1000 and (out / "rock.png").exists()
+
+
+def test_rock_command_refuses_a_flat_scan(tmp_path: Path) -> None:
+    path = tmp_path / "flat.xyz"
+    path.write_text("0 0 0\n1 0 0\n0 1 0\n1 1 0\n")
+    res = runner.invoke(app, ["rock", str(path), "--out", str(tmp_path / "r")])
+    assert res.exit_code == 2
+    assert "flat.xyz" in res.output

@@ -66,34 +66,16 @@ def load_rock_mesh(
     path: str | Path, *, units: str = "m", orientation: str = "as_scanned"
 ) -> tuple[trimesh.Trimesh, dict[str, Any]]:
     """Load a closed rock mesh ready for mass properties (positive volume, consistent winding)."""
+    from pbr_xval.geometry.io import close_and_orient
+
     mesh, info = load_mesh(path, units=units)
-    if not mesh.is_watertight:
-        trimesh.repair.fill_holes(mesh)
-        if not mesh.is_watertight:
-            raise MeshError(
-                f"{path}: the surface is open ({len(mesh.faces)} faces, not watertight) and its holes could not "
-                "be filled; expected a closed surface"
-            )
-        info["repairs"].append("filled holes")
-    if not mesh.is_winding_consistent:
-        trimesh.repair.fix_winding(mesh)
-        info["repairs"].append("made face winding consistent")
-    if mesh.volume < 0:
-        mesh.invert()
-        info["repairs"].append("inverted inward-wound faces")
-    if not (abs(mesh.volume) > 1e-12 * max(1.0, float(np.ptp(mesh.vertices))) ** 3):
-        raise MeshError(f"{path}: the mesh encloses zero volume; expected a solid")
+    # safe repairs without networkx (capping small planar holes, BFS winding fix, inversion)
+    close_and_orient(mesh, path, info["repairs"])
     if orientation == "stable":
-        transforms, _probs = trimesh.poses.compute_stable_poses(mesh, n_samples=1)
-        # lowest centre of mass among the hull's stable faces
-        best = None
-        for tf in transforms:
-            m2 = mesh.copy()
-            m2.apply_transform(tf)
-            z = m2.center_mass[2] - m2.bounds[0, 2]
-            if best is None or z < best[0]:
-                best = (z, tf)
-        if best is not None:
-            mesh.apply_transform(best[1])
-            info["pose_transform"] = np.asarray(best[1]).tolist()
+        from pbr_xval.geometry.interface import stable_pose
+
+        tf, pose = stable_pose(mesh.vertices, mesh.center_mass)
+        mesh.apply_transform(tf)
+        info["pose_transform"] = np.asarray(tf).tolist()
+        info["pose"] = pose
     return mesh, info

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import ConvexHull
 
-__all__ = ["StabilityTable", "critical_tilt", "support_points", "uplift_lever"]
+__all__ = ["StabilityTable", "critical_tilt", "hull_vertices", "support_points", "uplift_lever"]
 
 
 def _rot_about(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -113,6 +113,10 @@ class StabilityTable:
         xp = np.append(self.phi, 2 * np.pi)
         fp = np.append(self.alpha, self.alpha[0])
         return np.interp(p, xp, fp)
+
+    def toppling_accel(self, g: float = 9.81) -> np.ndarray:
+        """Quasi-static toppling acceleration g·tan α(φ) (m/s²) on the grid ``phi``."""
+        return g * np.tan(self.alpha)
 
     def uplift_accel(self, phi: float, g: float) -> float:
         """Quasi-static acceleration (m/s²) that tips the rock toward direction ``phi``."""

@@ -1,0 +1,350 @@
+"""Rock, pedestal and their contact interface; resting pose; critical tilt for every direction.
+
+* :func:`split_by_plane` — one scan cut by a plane into the rock (above) and pedestal (below).
+* :func:`fit_plane`, :func:`pedestal_plane` — the pedestal top near the rock, by least squares.
+* :func:`contact_patch` — the seed's basal contact points: rock points (surface vertices and/or
+  grid nodes) within ε of the pedestal surface, their support polygon (2-D convex hull in the
+  pedestal plane, area) and minimum-area bounding rectangle (shapely).
+* :func:`scan_pose`, :func:`stable_pose` — resting pose on a flat pedestal: keep the scan's
+  orientation (lowest points as the base), or the stable orientation with the lowest centre of
+  mass over the convex hull's faces (the hull face nearest the COM, which is always stable).
+* :func:`stability_table`, :func:`plot_stability_polar` — α(φ) and g·tan α(φ) for every
+  horizontal direction φ, and their polar plot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import trimesh
+from scipy.spatial import ConvexHull, cKDTree
+
+from pbr_xval.geometry.io import GeometryError
+from pbr_xval.geometry.stability import StabilityTable, hull_vertices
+
+__all__ = [
+    "ContactPatch",
+    "contact_patch",
+    "distance_to_mesh",
+    "fit_plane",
+    "frame_from_plane",
+    "pedestal_plane",
+    "plot_stability_polar",
+    "scan_pose",
+    "settle_pose",
+    "split_by_plane",
+    "stability_table",
+    "stable_pose",
+]
+
+
+# ------------------------------------------------------------------------------------- planes
+def fit_plane(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares plane (centroid (3,), unit normal (3,) with n_z ≥ 0) through ``points``."""
+    p = np.asarray(points, float)
+    c = p.mean(axis=0)
+    _, _, vt = np.linalg.svd(p - c, full_matrices=False)
+    n = vt[2]
+    if n[2] < 0:
+        n = -n
+    return c, n / np.linalg.norm(n)
+
+
+def frame_from_plane(point: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """4×4 rigid transform taking the plane to z = 0 with ``normal`` → +z (minimal rotation)."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    z = np.array([0.0, 0.0, 1.0])
+    v = np.cross(n, z)
+    s, c = np.linalg.norm(v), float(n @ z)
+    if s < 1e-15:
+        r = np.eye(3) if c > 0 else np.diag([1.0, -1.0, -1.0])
+    else:
+        k = np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]]) / s
+        ang = np.arctan2(s, c)
+        r = np.eye(3) + np.sin(ang) * k + (1 - np.cos(ang)) * (k @ k)
+    t = np.eye(4)
+    t[:3, :3] = r
+    t[:3, 3] = -r @ np.asarray(point, float)
+    return t
+
+
+def pedestal_plane(
+    pedestal_points: np.ndarray, rock_points: np.ndarray, radius: float | None = None
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """Plane fitted to the pedestal top near the rock's base.
+
+    Uses the pedestal points within ``radius`` (default 25 % of the rock's horizontal size) of
+    the rock's lowest 10 % of points (horizontal distance) and above the pedestal's median
+    height there; two passes of 2.5-σ outlier rejection. Returns (point, normal, info).
+    """
+    ped = np.asarray(pedestal_points, float)
+    rock = np.asarray(rock_points, float)
+    zr = rock[:, 2]
+    base = rock[zr <= zr.min() + 0.1 * np.ptp(zr)]
+    if radius is None:
+        radius = 0.25 * float(np.ptp(rock[:, :2], axis=0).max())
+    d, _ = cKDTree(base[:, :2]).query(ped[:, :2], k=1)
+    near = ped[d <= radius]
+    if len(near) < 3:
+        raise GeometryError(
+            f"only {len(near)} pedestal points lie within {radius:.3g} m of the rock's base; "
+            "expected a pedestal scanned under the rock"
+        )
+    near = near[near[:, 2] >= np.median(near[:, 2]) - 1e-12] if len(near) > 20 else near
+    c, n = fit_plane(near)
+    for _ in range(2):
+        r = (near - c) @ n
+        keep = np.abs(r) <= 2.5 * max(r.std(), 1e-12)
+        if keep.sum() >= 3:
+            near = near[keep]
+            c, n = fit_plane(near)
+    rms = float(np.sqrt(np.mean(((near - c) @ n) ** 2)))
+    return c, n, {"n_points": len(near), "rms_m": rms, "radius_m": radius}
+
+
+def distance_to_mesh(points: np.ndarray, mesh: trimesh.Trimesh, n_samples: int = 200_000, seed: int = 0) -> np.ndarray:
+    """Approximate unsigned distance from ``points`` to ``mesh`` (nearest of vertices + surface samples).
+
+    (trimesh.proximity needs rtree, which this project does not require.)
+    """
+    samples = trimesh.sample.sample_surface(mesh, n_samples, seed=seed)[0]
+    tree = cKDTree(np.vstack([mesh.vertices, samples]))
+    return tree.query(np.asarray(points, float), k=1)[0]
+
+
+# ------------------------------------------------------------------------------------- cutting
+def split_by_plane(
+    geom: trimesh.Trimesh | np.ndarray, point: np.ndarray, normal: np.ndarray = (0.0, 0.0, 1.0)
+) -> tuple[Any, Any]:
+    """Split a closed mesh (capped) or a point cloud into (above, below) the plane."""
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    o = np.asarray(point, float)
+    if isinstance(geom, trimesh.Trimesh):
+        above = trimesh.intersections.slice_mesh_plane(geom, n, o, cap=True)
+        below = trimesh.intersections.slice_mesh_plane(geom, -n, o, cap=True)
+        for part, what in ((above, "above"), (below, "below")):
+            if part is None or len(part.faces) == 0 or not part.volume > 0:
+                raise GeometryError(f"the cut plane through {o.tolist()} leaves nothing {what} it; expected a cut through the scan")
+        return above, below
+    p = np.asarray(geom, float)
+    s = (p - o) @ n
+    return p[s >= 0], p[s < 0]
+
+
+# ------------------------------------------------------------------------------------- contact
+@dataclass
+class ContactPatch:
+    """Basal contact of the rock on the pedestal plane (in the frame of the points given).
+
+    Attributes
+    ----------
+    points : (k, 3) rock points within ``eps`` of the plane.
+    plane_point, plane_normal : the pedestal plane.
+    eps : tolerance (m).
+    polygon : (q, 2) support polygon vertices (counter-clockwise) in plane coordinates (u, v).
+    area : support polygon area (m²).
+    rectangle : {"center": (2,), "extents": (2,), "angle_deg"} minimum-area bounding rectangle.
+    basis : (2, 3) unit vectors u, v spanning the plane.
+    """
+
+    points: np.ndarray
+    plane_point: np.ndarray
+    plane_normal: np.ndarray
+    eps: float
+    polygon: np.ndarray
+    area: float
+    rectangle: dict[str, Any]
+    basis: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "n_points": len(self.points),
+            "eps_m": self.eps,
+            "plane_point_m": self.plane_point.tolist(),
+            "plane_normal": self.plane_normal.tolist(),
+            "support_polygon_uv_m": self.polygon.tolist(),
+            "area_m2": self.area,
+            "min_rectangle": self.rectangle,
+        }
+
+
+def _plane_basis(n: np.ndarray) -> np.ndarray:
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, a)
+    u -= (u @ n) * n
+    u /= np.linalg.norm(u)
+    if abs(n[2]) > 0.9:  # keep u near +x for a horizontal plane
+        u = np.array([1.0, 0.0, 0.0]) - n[0] * n
+        u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    return np.vstack([u, v])
+
+
+def contact_patch(
+    rock_points: np.ndarray,
+    plane_point: np.ndarray | None = None,
+    plane_normal: np.ndarray = (0.0, 0.0, 1.0),
+    eps: float | None = None,
+) -> ContactPatch:
+    """Rock points within ``eps`` of the pedestal plane and their support polygon.
+
+    ``plane_point`` defaults to the lowest rock point (a flat pedestal under the scan pose);
+    ``eps`` defaults to 0.5 % of the rock's size. Points below the plane (interpenetration in
+    the scan) count as in contact.
+    """
+    from shapely.geometry import MultiPoint
+
+    p = np.asarray(rock_points, float)
+    n = np.asarray(plane_normal, float) / np.linalg.norm(plane_normal)
+    size = float(np.ptp(p, axis=0).max())
+    if plane_point is None:
+        plane_point = p[np.argmin(p @ n)]
+    o = np.asarray(plane_point, float)
+    if eps is None:
+        eps = 0.005 * size
+    h = (p - o) @ n
+    pts = p[h <= eps]
+    if len(pts) == 0:
+        raise GeometryError(
+            f"no rock point lies within {eps:.3g} m of the pedestal plane (lowest is {h.min():.3g} m above); "
+            "expected the rock to rest on the pedestal"
+        )
+    basis = _plane_basis(n)
+    uv = (pts - o) @ basis.T
+    hull = MultiPoint([tuple(q) for q in uv]).convex_hull
+    if hull.geom_type == "Polygon":
+        poly = np.asarray(hull.exterior.coords)[:-1]
+        if hull.exterior.is_ccw is False:
+            poly = poly[::-1]
+        rect = hull.minimum_rotated_rectangle
+        rc = np.asarray(rect.exterior.coords)[:4]
+        e1, e2 = rc[1] - rc[0], rc[2] - rc[1]
+        rectangle = {
+            "center": rc.mean(axis=0).tolist(),
+            "extents": sorted([float(np.linalg.norm(e1)), float(np.linalg.norm(e2))], reverse=True),
+            "angle_deg": float(np.degrees(np.arctan2(e1[1], e1[0]))) % 180.0,
+        }
+        area = float(hull.area)
+    else:
+        poly = np.asarray(hull.coords) if hull.geom_type != "Point" else np.asarray([hull.coords[0]])
+        ext = float(np.ptp(poly, axis=0).max()) if len(poly) > 1 else 0.0
+        rectangle = {"center": poly.mean(axis=0).tolist(), "extents": [ext, 0.0], "angle_deg": 0.0}
+        area = 0.0
+    return ContactPatch(pts, o, n, float(eps), poly, area, rectangle, basis)
+
+
+# ------------------------------------------------------------------------------------- poses
+def scan_pose(mesh: trimesh.Trimesh) -> np.ndarray:
+    """4×4 transform keeping the scan's orientation, lowest point on z = 0."""
+    t = np.eye(4)
+    t[2, 3] = -float(mesh.vertices[:, 2].min())
+    return t
+
+
+def stable_pose(vertices: np.ndarray, com: np.ndarray) -> tuple[np.ndarray, dict[str, Any]]:
+    """The resting orientation with the lowest centre of mass on a flat pedestal.
+
+    Among the convex hull's faces (coplanar triangles merged), the plane nearest the COM is
+    always a stable resting face (the COM projects inside it). Returns the 4×4 transform that
+    puts that face on z = 0 with the rock above, and {"face_normal", "com_height_m",
+    "face_vertices", "n_hull_faces"}.
+    """
+    v = np.asarray(vertices, float)
+    hull = ConvexHull(v)
+    eq = hull.equations  # n·x + d <= 0 inside, n outward
+    dist = -(eq[:, :3] @ np.asarray(com, float) + eq[:, 3])
+    i = int(np.argmin(dist))
+    n = eq[i, :3]
+    # the resting face: hull vertices on that plane
+    on = np.abs(v @ n + eq[i, 3]) <= 1e-9 * float(np.ptp(v)) + 1e-12
+    t = frame_from_plane(v[on][0], -n)  # outward normal → -z, so the rock sits above
+    rotated = trimesh.transform_points(v, t)
+    t[2, 3] -= float(rotated[:, 2].min())
+    return t, {
+        "face_normal": n.tolist(),
+        "com_height_m": float(dist[i]),
+        "face_vertices": int(on.sum()),
+        "n_hull_faces": len(eq),
+    }
+
+
+def settle_pose(vertices: np.ndarray, com: np.ndarray, max_iter: int = 20) -> tuple[np.ndarray, dict[str, Any]]:
+    """Settle the rock from its current orientation onto the hull face below its COM.
+
+    The vertical through the COM leaves the convex hull through one face; that face is rotated
+    onto z = 0 and the step repeated until the face stays the same (the COM is then above it).
+    Returns the 4×4 transform and {"face_normal", "iterations", "tilt_deg"}.
+    """
+    v0 = np.asarray(vertices, float)
+    hv = hull_vertices(v0)
+    total = np.eye(4)
+    c = np.asarray(com, float)
+    prev = None
+    it = 0
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
+        pts = trimesh.transform_points(hv, total)
+        cc = trimesh.transform_points(c[None], total)[0]
+        eq = ConvexHull(pts).equations
+        down = eq[:, 2] < -1e-12
+        t = -(eq[down, :3] @ cc + eq[down, 3]) / (-eq[down, 2])  # ray cc + t(-z)
+        i = int(np.argmin(t))
+        n = eq[down][i, :3]
+        if prev is not None and np.allclose(n, [0, 0, -1], atol=1e-10):
+            break
+        step = frame_from_plane(cc + t[i] * np.array([0, 0, -1.0]), -n)
+        total = step @ total
+        prev = n
+    pts = trimesh.transform_points(v0, total)
+    total[2, 3] -= float(pts[:, 2].min())
+    tilt = float(np.degrees(np.arccos(np.clip(total[2, 2], -1, 1))))
+    return total, {"face_normal": (-total[:3, :3].T @ [0, 0, 1.0]).tolist(), "iterations": it, "tilt_deg": tilt}
+
+
+# ------------------------------------------------------------------------------------- stability
+def stability_table(vertices: np.ndarray, com: np.ndarray, n_directions: int = 72) -> StabilityTable:
+    """:class:`StabilityTable` of the rock at rest on z = min z (vertices (n, 3) m, COM (3,) m)."""
+    return StabilityTable(np.asarray(vertices, float), np.asarray(com, float), n_directions=n_directions)
+
+
+def _atomic_savefig(fig: Any, path: Path, **kw: Any) -> None:
+    import os
+    import tempfile
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, **kw)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def plot_stability_polar(table: StabilityTable, path: str | Path, g: float = 9.81, title: str = "") -> Path:
+    """Polar plot of α(φ) (deg) and g·tan α(φ) (m/s²) written atomically to ``path`` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    phi = np.append(table.phi, table.phi[0] + 2 * np.pi)
+    alpha = np.degrees(np.append(table.alpha, table.alpha[0]))
+    acc = g * np.tan(np.radians(alpha))
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(10, 5))
+    axes[0].plot(phi, alpha, "-o", ms=2)
+    axes[0].set_title("critical tilt α(φ) [deg]")
+    axes[1].plot(phi, acc, "-o", ms=2, color="C3")
+    axes[1].set_title("quasi-static toppling g·tan α(φ) [m/s²]")
+    for ax in axes:
+        ax.set_rmin(0.0)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    _atomic_savefig(fig, Path(path), dpi=110)
+    plt.close(fig)
+    return Path(path)

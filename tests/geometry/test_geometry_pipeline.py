@@ -1,0 +1,263 @@
+"""Scan → rock model pipeline: closed-form mass properties, node convergence, critical tilt,
+bad inputs, CoACD cache, synthetic rocks and the CLI report."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+from pbr_xval.geometry.cloud import alpha_solid
+from pbr_xval.geometry.interface import contact_patch, stability_table, stable_pose
+from pbr_xval.geometry.io import GeometryError, load_scan
+from pbr_xval.geometry.mass import (
+    compare_mass_properties,
+    exact_mass_properties,
+    grid_nodes_in_mesh,
+    node_mass_properties,
+)
+from pbr_xval.geometry.mesh import MeshError
+from pbr_xval.geometry.shapes import box_mesh, notched_block_mesh
+from pbr_xval.geometry.synthetic import simulate_scan, synthetic_rock, write_point_cloud
+
+RHO = 2700.0
+
+
+def _rel(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def _box_inertia(m, dx, dy, dz):
+    """Solid cuboid of full sizes dx, dy, dz about its centre."""
+    return m / 12.0 * np.diag([dy**2 + dz**2, dx**2 + dz**2, dx**2 + dy**2])
+
+
+def _shift(m, r):
+    """Parallel-axis term for a point mass m at offset r."""
+    r = np.asarray(r, float)
+    return m * (r @ r * np.eye(3) - np.outer(r, r))
+
+
+# ---------------------------------------------------------------------------- closed forms
+def test_box_mass_properties_closed_form():
+    a, b, c = 0.3, 0.2, 0.7
+    mp = exact_mass_properties(box_mesh(np.array([a, b, c])), density=RHO)
+    m = RHO * 8 * a * b * c
+    assert mp.volume == pytest.approx(8 * a * b * c, rel=1e-9)
+    assert mp.mass == pytest.approx(m, rel=1e-9)
+    assert _rel(mp.com, [0, 0, c]) < 1e-9
+    assert _rel(mp.inertia, m / 3 * np.diag([b**2 + c**2, a**2 + c**2, a**2 + b**2])) < 1e-9
+    assert _rel(mp.principal_moments, sorted(m / 3 * np.array([b**2 + c**2, a**2 + c**2, a**2 + b**2]))) < 1e-9
+    # mass given instead of density
+    assert exact_mass_properties(box_mesh(np.array([a, b, c])), mass=m).density == pytest.approx(RHO, rel=1e-12)
+
+
+def test_notched_block_mass_properties_closed_form():
+    bx, by, bz, w, nh = 0.4, 0.25, 0.8, 0.3, 0.12
+    mp = exact_mass_properties(notched_block_mesh(np.array([bx, by, bz]), w, nh), density=RHO)
+    fw = bx - w / 2  # each foot's width
+    parts = [  # (full sizes, centre) built by hand
+        ((fw, 2 * by, nh), (-(w / 2 + fw / 2), 0.0, nh / 2)),
+        ((fw, 2 * by, nh), (w / 2 + fw / 2, 0.0, nh / 2)),
+        ((2 * bx, 2 * by, 2 * bz - nh), (0.0, 0.0, nh + (2 * bz - nh) / 2)),
+    ]
+    masses = [RHO * s[0] * s[1] * s[2] for s, _ in parts]
+    m = sum(masses)
+    com = sum(mi * np.array(c) for mi, (_, c) in zip(masses, parts, strict=True)) / m
+    inertia = sum(_box_inertia(mi, *s) + _shift(mi, np.array(c) - com) for mi, (s, c) in zip(masses, parts, strict=True))
+    assert mp.mass == pytest.approx(m, rel=1e-9)
+    assert _rel(mp.com, com) < 1e-9
+    assert _rel(mp.inertia, inertia) < 1e-9
+
+
+def test_node_method_on_a_box_is_exact_when_the_grid_fits():
+    """Cells that tile the box exactly: volume, COM and inertia (with the h²/6 self term) are exact."""
+    h = 0.05
+    a, b, c = 0.3, 0.2, 0.4
+    g = [np.arange(-a + h / 2, a, h), np.arange(-b + h / 2, b, h), np.arange(h / 2, 2 * c, h)]
+    nodes = np.stack(np.meshgrid(*g, indexing="ij"), -1).reshape(-1, 3)
+    nd = node_mass_properties(nodes, h, density=RHO)
+    ex = exact_mass_properties(box_mesh(np.array([a, b, c])), density=RHO)
+    assert nd.volume == pytest.approx(ex.volume, rel=1e-9)
+    assert _rel(nd.inertia, ex.inertia) < 1e-9
+
+
+def test_node_estimate_converges_on_an_ellipsoid():
+    e = trimesh.creation.icosphere(subdivisions=5)
+    e.apply_scale([0.3, 0.2, 0.5])
+    hs = np.array([0.04, 0.02, 0.01, 0.005])
+    ev, ei = [], []
+    for h in hs:
+        r = compare_mass_properties(e, h, density=RHO)
+        ev.append(abs(r["rel_volume"]))
+        ei.append(r["rel_inertia"])
+    slope_v = np.polyfit(np.log(hs), np.log(ev), 1)[0]
+    slope_i = np.polyfit(np.log(hs), np.log(ei), 1)[0]
+    # observed: slope ≈ 1.6 for volume, ≈ 1.3 for inertia (a simple inside/outside grid: ≥ 1 expected)
+    assert slope_v > 0.9, (slope_v, ev)
+    assert slope_i > 0.9, (slope_i, ei)
+    assert ev[-1] < 5e-4 and ei[-1] < 1e-3
+
+
+def test_grid_nodes_in_mesh_matches_the_analytic_inside_test():
+    e = trimesh.creation.icosphere(subdivisions=4)
+    nodes = grid_nodes_in_mesh(e, 0.1)
+    assert np.all(np.linalg.norm(nodes, axis=1) < 1.0)
+    assert len(nodes) == pytest.approx(4 / 3 * math.pi / 0.1**3, rel=0.03)
+
+
+# ---------------------------------------------------------------------------- critical tilt
+def test_box_critical_tilt_in_every_direction():
+    """Tilting about the horizontal axis ⟂ φ, the lowest hull point is the bottom corner furthest
+    along φ, at horizontal distance bx|cos φ| + by|sin φ| from the COM's vertical along φ: the COM
+    passes over it when tan α = (bx|cos φ| + by|sin φ|)/hz. Along the faces this is atan(b/h)."""
+    bx, by, hz = 0.2, 0.35, 0.6
+    mesh = box_mesh(np.array([bx, by, hz]))
+    table = stability_table(mesh.vertices, mesh.center_mass, n_directions=72)
+    expected = np.arctan((bx * np.abs(np.cos(table.phi)) + by * np.abs(np.sin(table.phi))) / hz)
+    np.testing.assert_allclose(table.alpha, expected, atol=1e-9)
+    assert table.alpha[0] == pytest.approx(math.atan(bx / hz), abs=1e-9)
+    assert table.alpha[18] == pytest.approx(math.atan(by / hz), abs=1e-9)
+    np.testing.assert_allclose(table.toppling_accel(9.81), 9.81 * np.tan(expected), rtol=1e-8)
+
+
+def test_stable_pose_and_contact_patch_of_a_tilted_box(tmp_path):
+    mesh = box_mesh(np.array([0.3, 0.2, 0.5]))
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(0.7, [1, 1, 0]))
+    t, info = stable_pose(mesh.vertices, mesh.center_mass)
+    m2 = mesh.copy()
+    m2.apply_transform(t)
+    # lowest COM: resting on a 0.6 × 0.4 face, COM 0.2 m above it
+    assert info["com_height_m"] == pytest.approx(0.2, abs=1e-9)
+    assert m2.center_mass[2] == pytest.approx(0.2, abs=1e-9)
+    cp = contact_patch(m2.vertices)
+    assert cp.area == pytest.approx(0.6 * 1.0, rel=1e-6)
+    assert cp.rectangle["extents"] == pytest.approx([1.0, 0.6], rel=1e-6)
+
+
+# ---------------------------------------------------------------------------- bad inputs
+def _write_obj(path: Path, v, f) -> Path:
+    lines = [f"v {x} {y} {z}" for x, y, z in v] + [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_nan_vertex_is_refused(tmp_path):
+    b = trimesh.creation.box()
+    v = b.vertices.astype(object)
+    v[3] = ("nan", 0.0, 0.0)
+    p = _write_obj(tmp_path / "nan.obj", v, b.faces)
+    with pytest.raises(GeometryError, match=r"nan\.obj.*NaN"):
+        load_scan(p)
+
+
+def test_open_surface_that_cannot_be_closed_is_refused(tmp_path):
+    b = trimesh.creation.box()
+    # drop two adjacent sides: the hole is a non-planar loop of 6 edges
+    drop = {i for i in range(12) if b.face_normals[i][0] < -0.5 or b.face_normals[i][1] < -0.5}
+    p = _write_obj(tmp_path / "open.obj", b.vertices, b.faces[[i for i in range(12) if i not in drop]])
+    with pytest.raises(MeshError, match=r"open\.obj.*open.*expected a closed surface"):
+        load_scan(p)
+
+
+def test_small_planar_hole_is_capped_and_reported(tmp_path):
+    b = trimesh.creation.box()
+    keep = [i for i in range(12) if b.face_normals[i][2] < 0.5]  # no top
+    p = _write_obj(tmp_path / "lid.obj", b.vertices, b.faces[keep])
+    s = load_scan(p)
+    assert s.mesh.volume == pytest.approx(1.0, rel=1e-9)
+    assert any("capped" in r for r in s.info["repairs"])
+
+
+def test_inward_winding_and_inconsistent_faces_are_repaired(tmp_path):
+    b = trimesh.creation.box()
+    f = b.faces[:, ::-1].copy()  # inward
+    f[5] = f[5][::-1]  # and one face inconsistent
+    s = load_scan(_write_obj(tmp_path / "inv.obj", b.vertices + 300.0, f))
+    assert s.mesh.volume == pytest.approx(1.0, rel=1e-9)
+    assert s.info["offset_m"] == pytest.approx([300.0] * 3)
+    joined = " ".join(s.info["repairs"])
+    assert "winding consistent" in joined and "inverted" in joined
+
+
+def test_flat_mesh_and_three_points_are_refused(tmp_path):
+    b = trimesh.creation.box()
+    v = b.vertices.copy()
+    v[:, 2] = 0.0
+    with pytest.raises(GeometryError, match=r"flat\.obj.*(coplanar|zero volume)"):
+        load_scan(_write_obj(tmp_path / "flat.obj", v, b.faces))
+    p = tmp_path / "three.xyz"
+    p.write_text("# x y z\n0 0 0\n1 0 0\n0 1 0\n")
+    with pytest.raises(GeometryError, match=r"three\.xyz.*only 3 points"):
+        load_scan(p)
+
+
+def test_las_without_laspy_gives_install_hint(tmp_path):
+    p = tmp_path / "a.las"
+    p.write_bytes(b"LASF")
+    try:
+        import laspy  # noqa: F401
+    except ImportError:
+        with pytest.raises(GeometryError, match=r"pbr-xval\[tls\]"):
+            load_scan(p)
+
+
+# ---------------------------------------------------------------------------- synthetic rocks
+def test_synthetic_rock_is_deterministic_and_reconstructs(tmp_path):
+    m1, info = synthetic_rock(seed=3)
+    m2, _ = synthetic_rock(seed=3)
+    assert m1.is_watertight and m1.volume > 0
+    assert np.array_equal(m1.vertices, m2.vertices)
+    assert m1.vertices[:, 2].min() == pytest.approx(0.0, abs=1e-12)
+    assert info["min_uplift_angle_deg"] > 0  # rests on its base
+    pts = simulate_scan(m1, seed=3)
+    a = write_point_cloud(pts, tmp_path / "a.ply").read_bytes()
+    b = write_point_cloud(simulate_scan(m2, seed=3), tmp_path / "b.ply").read_bytes()
+    assert a == b
+    write_point_cloud(pts, tmp_path / "a.xyz")
+    for name in ("a.ply", "a.xyz"):
+        s = load_scan(tmp_path / name)
+        sol = alpha_solid(s.points)
+        assert sol.mesh.is_watertight
+        assert sol.volume == pytest.approx(m1.volume, rel=0.03)
+
+
+# ---------------------------------------------------------------------------- CoACD
+def test_convex_parts_cached(tmp_path):
+    from pbr_xval.geometry.decompose import convex_parts, decomposition_report
+
+    mesh = notched_block_mesh(np.array([0.4, 0.25, 0.8]), 0.3, 0.12)
+    parts = convex_parts(mesh, threshold=0.05, cache_dir=tmp_path)
+    rep = decomposition_report(mesh, parts)
+    assert rep["n_parts"] >= 2
+    assert abs(rep["rel_volume_error"]) < 0.05
+    assert len(list(tmp_path.glob("coacd_*.npz"))) == 1
+    again = convex_parts(mesh, threshold=0.05, cache_dir=tmp_path)
+    assert all(np.array_equal(p.vertices, q.vertices) for p, q in zip(parts, again, strict=True))
+
+
+# ---------------------------------------------------------------------------- CLI
+def test_rock_command_on_a_synthetic_scan(tmp_path):
+    from rich.console import Console
+
+    from pbr_xval.rock_cli import rock_command
+
+    m, _ = synthetic_rock(seed=5)
+    scan = write_point_cloud(simulate_scan(m, seed=5) + np.array([100.0, 200.0, 50.0]), tmp_path / "syn.xyz")
+    out = tmp_path / "rep"
+    con = Console(record=True, width=120)
+    assert rock_command(scan, None, 2700.0, "m", out, n_directions=24, console=con) == 0
+    d = json.loads((out / "rock.json").read_text())
+    assert d["volume_m3"] == pytest.approx(m.volume, rel=0.03)
+    assert d["com_scan_m"][2] > 50.0
+    assert d["critical_tilt"]["min_deg"] > 0
+    assert (out / "rock.png").stat().st_size > 0 and (out / "polar.png").stat().st_size > 0
+    assert "critical tilt" in con.export_text()
+    bad = tmp_path / "bad.xyz"
+    bad.write_text("0 0 0\n")
+    assert rock_command(bad, None, 2700.0, "m", out, console=con) == 2
