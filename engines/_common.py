@@ -10,11 +10,13 @@ This module records the trajectory, detects toppling and blow-ups, and builds th
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import math
 import os
 import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -309,3 +311,80 @@ def initial_pose(scene: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     omega = om * e
     vel = np.cross(omega, com_t - pivot)
     return com_t, rot, vel, omega
+
+
+# ------------------------------------------------------------------ geometry
+COLLISION_CHOICES = ("auto", "primitive", "boxes", "hull", "coacd", "decimated", "mesh")
+
+
+def cache_dir() -> Path:
+    """Cache directory for derived geometry (``$PBR_XVAL_CACHE`` or ``~/.cache/pbr_xval``)."""
+    env = os.environ.get("PBR_XVAL_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "pbr_xval"
+
+
+def write_obj(vertices: np.ndarray, faces: np.ndarray, tag: str) -> Path:
+    """An OBJ file for a triangle mesh in the cache, named by its content, written atomically.
+
+    Parameters
+    ----------
+    vertices : (n, 3) float, m.
+    faces : (m, 3) int.
+    """
+    v = np.ascontiguousarray(vertices, dtype=np.float64)
+    f = np.ascontiguousarray(faces, dtype=np.int64)
+    h = hashlib.sha256(v.tobytes())
+    h.update(f.tobytes())
+    path = cache_dir() / "obj" / f"{tag}_{h.hexdigest()[:24]}.obj"
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in v.tolist()]
+        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f.tolist()]
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w") as fh:
+                fh.write("\n".join(lines) + "\n")
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    return path
+
+
+def collision_parts(
+    scene: Any, choice: str, coacd_threshold: float | None = None, coacd_seed: int = 0
+) -> tuple[str, list[tuple[np.ndarray, np.ndarray]]]:
+    """Resolve an adapter's ``collision`` setting against the scene compiler's choice.
+
+    ``"auto"`` follows ``scene.collision`` (chosen and recorded by the compiler from the
+    scenario's ``[model]``). Returns the kind and, for mesh kinds, the parts as
+    [(vertices (n, 3) m, faces (m, 3) int)] in the scene frame; primitive kinds return [].
+    """
+    if choice not in COLLISION_CHOICES:
+        raise ValueError(f"collision {choice!r}; expected one of {COLLISION_CHOICES}")
+    sc = scene.collision
+    kind = sc["kind"] if choice == "auto" else choice
+    rock = scene.rock
+    if kind == "primitive" and rock.primitive is None:
+        kind = "hull"
+    if kind == "boxes" and rock.box_parts is None:
+        kind = "hull"
+    if kind in ("primitive", "boxes"):
+        return kind, []
+    if kind == sc["kind"] and "parts" in sc and (kind != "coacd" or coacd_threshold in (None, sc.get("threshold"))):
+        return kind, list(sc["parts"])
+    if kind == "hull":
+        hull = rock.mesh.convex_hull
+        return kind, [(np.asarray(hull.vertices, float), np.asarray(hull.faces, np.int64))]
+    if kind == "mesh":
+        return kind, [(np.asarray(rock.mesh.vertices, float), np.asarray(rock.mesh.faces, np.int64))]
+    if kind == "coacd":
+        from pbr_xval.geometry.decompose import convex_parts
+
+        parts = convex_parts(rock.mesh, threshold=coacd_threshold or 0.05, seed=coacd_seed)
+        return kind, [(np.asarray(p.vertices, float), np.asarray(p.faces, np.int64)) for p in parts]
+    from pbr_xval.geometry.reduce import decimate_keep_base
+
+    size = float(np.ptp(rock.mesh.vertices))
+    dec = decimate_keep_base(rock.mesh, size / 20, 0.02 * float(np.ptp(rock.mesh.vertices[:, 2])))
+    return kind, [(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))]

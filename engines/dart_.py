@@ -26,10 +26,7 @@ on stderr only (captured here and counted in the diagnostics).
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, ClassVar
@@ -46,13 +43,23 @@ from pbr_xval.engine import (
     NotApplicable,
     Trajectory,
 )
-from pbr_xval.engines._common import GROUND_MODES, Recorder, StderrCapture, initial_pose, n_steps
+from pbr_xval.engines._common import (
+    COLLISION_CHOICES,
+    GROUND_MODES,
+    Recorder,
+    StderrCapture,
+    cache_dir,
+    collision_parts,
+    initial_pose,
+    n_steps,
+    write_obj,
+)
 
 __all__ = ["DartEngine"]
 
 _DETECTORS = ("fcl", "ode", "dart", "bullet")
 _LCP_SOLVERS = ("dantzig", "pgs", "nsgs", "fbf")
-_COLLISION = ("hull", "coacd", "mesh")
+_COLLISION = COLLISION_CHOICES
 #: substrings of DART's stderr lines that signal a failed LCP solve
 _LCP_FAILURE_NEEDLES = ("failed to find a solution",)
 
@@ -66,73 +73,6 @@ def _import_dart() -> Any:
             f"Install it with: pip install {KNOWN_ENGINES['dart']}"
         ) from exc
     return dartpy
-
-
-def cache_dir() -> Path:
-    """Directory for generated files (env ``PBR_XVAL_CACHE`` or ``~/.cache/pbr_xval``), ``dart/`` below it."""
-    root = os.environ.get("PBR_XVAL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "pbr_xval")
-    d = Path(root) / "dart"
-    d.mkdir(parents=True, exist_ok=True)
-    return d
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _mesh_key(vertices: np.ndarray, faces: np.ndarray, extra: str = "") -> str:
-    h = hashlib.sha256()
-    h.update(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(faces, dtype=np.int64).tobytes())
-    h.update(extra.encode())
-    return h.hexdigest()[:24]
-
-
-def _write_obj(vertices: np.ndarray, faces: np.ndarray, tag: str) -> Path:
-    """OBJ file (cached by content) for a triangle mesh; vertices (n, 3) m, faces (m, 3) int."""
-    path = cache_dir() / f"{tag}_{_mesh_key(vertices, faces)}.obj"
-    if not path.exists():
-        lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in np.asarray(vertices, dtype=float).tolist()]
-        lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.asarray(faces, dtype=np.int64).tolist()]
-        _atomic_write(path, ("\n".join(lines) + "\n").encode())
-    return path
-
-
-def _coacd_parts(
-    vertices: np.ndarray, faces: np.ndarray, threshold: float, seed: int
-) -> list[tuple[Any, Any]]:
-    """CoACD convex parts [(V (n, 3), F (m, 3)), ...], cached on disk by mesh hash + parameters."""
-    key = _mesh_key(vertices, faces, f"coacd threshold={threshold!r} seed={seed}")
-    path = cache_dir() / f"coacd_{key}.npz"
-    if path.exists():
-        with np.load(path) as z:
-            n = int(z["n"])
-            return [(z[f"v{i}"], z[f"f{i}"]) for i in range(n)]
-    import io
-
-    import coacd
-
-    coacd.set_log_level("error")
-    parts = coacd.run_coacd(
-        coacd.Mesh(np.asarray(vertices, float), np.asarray(faces, np.int64)),
-        threshold=float(threshold),
-        seed=int(seed),
-    )
-    arrays: dict[str, Any] = {"n": np.array(len(parts))}
-    for i, (v, f) in enumerate(parts):
-        arrays[f"v{i}"] = np.asarray(v, dtype=float)
-        arrays[f"f{i}"] = np.asarray(f, dtype=np.int64)
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    _atomic_write(path, buf.getvalue())
-    return [(arrays[f"v{i}"], arrays[f"f{i}"]) for i in range(len(parts))]
 
 
 def _load_mesh_shapes(dart: Any, paths: list[Path]) -> list[Any]:
@@ -187,7 +127,7 @@ class DartEngine(EngineBase):
             "lcp_solver": "dantzig",  # "dantzig" (default; PGS fallback) | "pgs" | "nsgs" | "fbf"
             "pgs_iterations": 30,  # PgsBoxedLcpSolverOption.mMaxIteration (the PGS fallback, or primary)
             "split_impulse": False,  # BoxedLcpConstraintSolver default
-            "collision": "hull",  # mesh rocks: "hull" | "coacd" | "mesh" (the raw, possibly non-convex mesh)
+            "collision": "auto",  # auto: the scene compiler's choice | primitive | boxes | hull | coacd | decimated | mesh (raw, non-convex)
             "coacd_threshold": 0.05,
             "coacd_seed": 0,
             "plane_half_extents": [50.0, 50.0, 0.5],  # m, the box standing in for a "plane" pedestal
@@ -254,11 +194,12 @@ class DartEngine(EngineBase):
         D = dart.dynamics
         rock = scene.rock
         com = np.asarray(rock.com, dtype=float)
-        if rock.primitive is not None and rock.primitive.get("type") == "box":
+        kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
+        if kind == "primitive":
             he = np.asarray(rock.primitive["half_extents"], dtype=float)
             centre = 0.5 * (rock.mesh.bounds[0] + rock.mesh.bounds[1])
             return [(D.BoxShape(2.0 * he), np.asarray(rock.rotation, float), centre - com)], "box primitive"
-        if rock.box_parts is not None:
+        if kind == "boxes":
             out = [
                 (
                     D.BoxShape(2.0 * np.asarray(h, float)),
@@ -268,20 +209,9 @@ class DartEngine(EngineBase):
                 for c, h in rock.box_parts
             ]
             return out, f"compound of {len(out)} boxes"
-        mesh = rock.mesh
-        v = np.asarray(mesh.vertices, dtype=float) - com
-        f = np.asarray(mesh.faces, dtype=np.int64)
-        if s["collision"] == "hull":
-            hull = mesh.convex_hull
-            paths = [_write_obj(np.asarray(hull.vertices, float) - com, np.asarray(hull.faces), "hull")]
-            desc = "convex hull mesh"
-        elif s["collision"] == "mesh":
-            paths = [_write_obj(v, f, "mesh")]
-            desc = "triangle mesh (non-convex)"
-        else:
-            parts = _coacd_parts(v, f, float(s["coacd_threshold"]), int(s["coacd_seed"]))
-            paths = [_write_obj(pv, pf, "coacd") for pv, pf in parts]
-            desc = f"coacd, {len(paths)} convex parts"
+        # FCL collides a MeshShape as the triangle mesh itself (non-convex allowed)
+        paths = [write_obj(np.asarray(v, float) - com, f, f"dart_{kind}") for v, f in parts]
+        desc = {"hull": "convex hull mesh", "mesh": "triangle mesh (non-convex)"}.get(kind, f"{kind}, {len(paths)} parts")
         shapes = _load_mesh_shapes(dart, paths)
         return [(sh, np.eye(3), np.zeros(3)) for sh in shapes], desc
 
@@ -296,7 +226,7 @@ class DartEngine(EngineBase):
             return D.BoxShape(2.0 * he), np.array([0.0, 0.0, -he[2]]), "box"
         if ped["kind"] == "mesh":
             pm = ped["mesh"]
-            path = _write_obj(np.asarray(pm.vertices, float), np.asarray(pm.faces), "pedestal")
+            path = write_obj(np.asarray(pm.vertices, float), np.asarray(pm.faces), "dart_pedestal")
             return _load_mesh_shapes(dart, [path])[0], np.zeros(3), "triangle mesh"
         raise NotApplicable(f"dart: unknown pedestal kind {ped['kind']!r}")
 

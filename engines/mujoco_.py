@@ -20,14 +20,9 @@ Measured ground truth and pitfalls: ``/work/shared/notes/engines_pybullet_mujoco
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import os
-import tempfile
 import time
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -41,14 +36,21 @@ from pbr_xval.engine import (
     NotApplicable,
     Trajectory,
 )
-from pbr_xval.engines._common import GROUND_MODES, Recorder, initial_pose, n_steps
+from pbr_xval.engines._common import (
+    COLLISION_CHOICES,
+    GROUND_MODES,
+    Recorder,
+    collision_parts,
+    initial_pose,
+    n_steps,
+)
 
 __all__ = ["MuJoCoEngine"]
 
 _INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast", "discrete")
 _SOLVERS = ("PGS", "CG", "Newton")
 _CONES = ("pyramidal", "elliptic")
-_COLLISIONS = ("auto", "hull", "coacd")
+_COLLISIONS = COLLISION_CHOICES
 
 
 def _import_mujoco() -> Any:
@@ -92,62 +94,6 @@ def _fail(rec: Recorder, t: float, message: str) -> None:
 
 
 # --------------------------------------------------------------------------- CoACD cache
-def _cache_dir() -> Path:
-    root = os.environ.get("PBR_XVAL_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "pbr_xval")
-    return Path(root) / "coacd"
-
-
-def coacd_parts(
-    vertices: np.ndarray, faces: np.ndarray, threshold: float, seed: int
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Convex parts [(V (n, 3), F (k, 3)), ...] of a mesh by CoACD, cached on disk.
-
-    The cache key is the SHA-256 of the vertex and face arrays and the CoACD parameters; the
-    file is written atomically (temporary file + rename) under ``$PBR_XVAL_CACHE/coacd`` (default
-    ``~/.cache/pbr_xval/coacd``).
-    """
-    v = np.ascontiguousarray(vertices, dtype=np.float64)
-    f = np.ascontiguousarray(faces, dtype=np.int64)
-    params = {"threshold": float(threshold), "seed": int(seed), "coacd": _coacd_version()}
-    h = hashlib.sha256()
-    h.update(v.tobytes())
-    h.update(f.tobytes())
-    h.update(json.dumps(params, sort_keys=True).encode())
-    path = _cache_dir() / f"{h.hexdigest()}.npz"
-    if path.exists():
-        with np.load(path) as z:
-            n = int(z["n"])
-            return [(z[f"v{i}"], z[f"f{i}"]) for i in range(n)]
-    import coacd
-
-    coacd.set_log_level("error")
-    parts = coacd.run_coacd(coacd.Mesh(v, f), threshold=float(threshold), seed=int(seed))
-    out = [(np.asarray(pv, dtype=float), np.asarray(pf, dtype=np.int64)) for pv, pf in parts]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp.npz", dir=path.parent)
-    os.close(fd)
-    try:
-        arrays: dict[str, np.ndarray] = {"n": np.array(len(out))}
-        for i, (pv, pf) in enumerate(out):
-            arrays[f"v{i}"], arrays[f"f{i}"] = pv, pf
-        np.savez(tmp, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return out
-
-
-def _coacd_version() -> str:
-    import importlib.metadata
-
-    try:
-        return importlib.metadata.version("coacd")
-    except importlib.metadata.PackageNotFoundError:
-        return "not installed"
-
-
-# --------------------------------------------------------------------------- engine
 class MuJoCoEngine(EngineBase):
     """MuJoCo (``mujoco-core``) rigid-body adapter; see the module docstring."""
 
@@ -195,7 +141,7 @@ class MuJoCoEngine(EngineBase):
                 "multiccd": True,
                 "refsafe": True,
                 "sleep": False,
-                "collision": "auto",  # auto (primitives where exact, else hull) | hull | coacd
+                "collision": "auto",  # auto: the scene compiler's choice (scenario [model]) | primitive | boxes | hull | coacd | decimated
                 "coacd_threshold": 0.05,
                 "coacd_seed": 0,
             },
@@ -355,9 +301,9 @@ class MuJoCoEngine(EngineBase):
         body.inertia = [float(x) for x in evals]
         body.explicitinertial = True
 
-        collision = s["collision"]
+        kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         rq = _mat_to_quat(np.asarray(rock.rotation, dtype=float))
-        if collision == "auto" and rock.primitive is not None and rock.primitive.get("type") == "box":
+        if kind == "primitive":
             centre = rock.mesh.bounds.mean(axis=0)
             g = body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -367,7 +313,7 @@ class MuJoCoEngine(EngineBase):
             )
             contact(g)
             info.update(collision="box primitive", parts=1)
-        elif collision == "auto" and rock.box_parts is not None:
+        elif kind == "boxes":
             for c, h in rock.box_parts:
                 g = body.add_geom(
                     type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -378,15 +324,8 @@ class MuJoCoEngine(EngineBase):
                 contact(g)
             info.update(collision="compound of box geoms", parts=len(rock.box_parts))
         else:
-            if collision == "coacd":
-                parts = coacd_parts(
-                    rock.mesh.vertices, rock.mesh.faces, s["coacd_threshold"], s["coacd_seed"]
-                )
-                info.update(collision="coacd", parts=len(parts))
-            else:
-                hull = rock.mesh.convex_hull
-                parts = [(np.asarray(hull.vertices, dtype=float), np.asarray(hull.faces, dtype=np.int64))]
-                info.update(collision="convex hull", parts=1)
+            # every MuJoCo mesh geom collides as its convex hull
+            info.update(collision=kind, parts=len(parts))
             for i, (pv, pf) in enumerate(parts):
                 ms = spec.add_mesh(
                     name=f"rock{i}",

@@ -19,12 +19,7 @@ Measured behaviour and pitfalls: ``/work/shared/notes/engines_pybullet_mujoco.md
 
 from __future__ import annotations
 
-import hashlib
-import os
-import shutil
-import tempfile
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -40,11 +35,20 @@ from pbr_xval.engine import (
     Trajectory,
 )
 
-from ._common import GROUND_MODES, Recorder, initial_pose, matrix_to_quat, n_steps
+from ._common import (
+    COLLISION_CHOICES,
+    GROUND_MODES,
+    Recorder,
+    collision_parts,
+    initial_pose,
+    matrix_to_quat,
+    n_steps,
+    write_obj,
+)
 
 __all__ = ["PyBulletEngine"]
 
-_COLLISION = ("auto", "primitive", "boxes", "hull", "coacd")
+_COLLISION = COLLISION_CHOICES
 _SOLVERS = ("si", "pgs", "dantzig")
 #: Bullet clamps the combined (product) friction of a contact pair at this value (btManifoldResult)
 _BULLET_MAX_FRICTION = 10.0
@@ -83,60 +87,6 @@ def _principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return lam, vec
 
 
-def cache_dir() -> Path:
-    """Cache directory for derived geometry (``$PBR_XVAL_CACHE`` or ``~/.cache/pbr_xval``)."""
-    env = os.environ.get("PBR_XVAL_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "pbr_xval"
-
-
-def coacd_parts(mesh: Any, threshold: float, max_convex_hull: int, seed: int) -> list[Path]:
-    """Convex parts of ``mesh`` (scene frame) by CoACD, as OBJ files in the cache.
-
-    The key is the SHA-256 of the vertices, faces, CoACD parameters and version; the part
-    directory is written to a temporary name and renamed into place (atomic).
-
-    Returns
-    -------
-    list of Path, one OBJ file per convex part, vertices in m, scene frame.
-    """
-    import importlib.metadata
-
-    version = importlib.metadata.version("coacd")
-    h = hashlib.sha256()
-    h.update(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
-    h.update(f"obj-format=1;coacd={version};threshold={threshold!r};max_convex_hull={max_convex_hull};seed={seed}".encode())
-    root = cache_dir() / "coacd_obj"
-    final = root / h.hexdigest()[:32]
-    if not (final / "done").exists():
-        import coacd
-
-        coacd.set_log_level("error")
-        parts = coacd.run_coacd(
-            coacd.Mesh(np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=np.int64)),
-            threshold=float(threshold),
-            max_convex_hull=int(max_convex_hull),
-            seed=int(seed),
-        )
-        root.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=final.name + ".", dir=root))
-        try:
-            for k, (v, f) in enumerate(parts):
-                lines = [f"v {x:.17g} {y:.17g} {z:.17g}" for x, y, z in np.asarray(v, dtype=float).tolist()]
-                lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in np.asarray(f, dtype=int).tolist()]
-                (tmp / f"part_{k:03d}.obj").write_text("\n".join(lines) + "\n")
-            (tmp / "done").write_text(f"{len(parts)}\n")
-            try:
-                os.replace(tmp, final)
-            except OSError:  # another process won the race: keep its copy
-                if not (final / "done").exists():
-                    raise
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
-    return sorted(final.glob("part_*.obj"))
-
-
 class PyBulletEngine(EngineBase):
     """PyBullet multibody simulation of the rock (see the module docstring)."""
 
@@ -170,7 +120,6 @@ class PyBulletEngine(EngineBase):
             # or force "primitive" (box rocks), "boxes" (rocks with box_parts), "hull", "coacd"
             "collision": "auto",
             "coacd_threshold": 0.05,
-            "coacd_max_convex_hull": -1,
             "coacd_seed": 0,
             # a {"kind": "plane"} pedestal as a GEOM_PLANE or a large box (half extents below, top at z = 0)
             "plane_pedestal": "box",
@@ -257,9 +206,7 @@ class PyBulletEngine(EngineBase):
         """Collision shape of the rock in the body frame (origin at the COM, axes ``rot0``)."""
         rock = scene.rock
         com = rock.com
-        choice = s["collision"]
-        if choice == "auto":
-            choice = "primitive" if rock.primitive is not None else "boxes" if rock.box_parts else "hull"
+        choice, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         rt = rot0.T
         if choice == "primitive":
             if rock.primitive is None or rock.primitive.get("type") != "box":
@@ -287,11 +234,12 @@ class PyBulletEngine(EngineBase):
             )
             return sid, {"collision": "boxes", "n_parts": n}
         if choice == "hull":
-            hull = rock.mesh.convex_hull
-            verts = (np.asarray(hull.vertices, dtype=float) - com) @ rot0  # rows: rt @ (v - com)
+            verts = (parts[0][0] - com) @ rot0  # rows: rt @ (v - com)
             sid = p.createCollisionShape(p.GEOM_MESH, vertices=verts.tolist(), physicsClientId=cid)
             return sid, {"collision": "hull", "n_parts": 1, "hull_vertices": len(verts)}
-        files = coacd_parts(rock.mesh, s["coacd_threshold"], s["coacd_max_convex_hull"], s["coacd_seed"])
+        # several (convex) parts: createCollisionShapeArray has no vertex arrays, so OBJ files;
+        # each GEOM_MESH collides as its convex hull
+        files = [write_obj(v, f, f"pybullet_{choice}") for v, f in parts]
         n = len(files)
         sid = p.createCollisionShapeArray(
             shapeTypes=[p.GEOM_MESH] * n,
@@ -301,7 +249,7 @@ class PyBulletEngine(EngineBase):
             collisionFrameOrientations=[_xyzw(rt)] * n,
             physicsClientId=cid,
         )
-        return sid, {"collision": "coacd", "n_parts": n, "coacd_dir": str(files[0].parent) if files else ""}
+        return sid, {"collision": choice, "n_parts": n}
 
     def _pedestal(self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], moving: bool, axes: int) -> tuple[int, int]:
         """Pedestal body and the link index that carries its collision shape (−1: the base)."""

@@ -38,6 +38,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 __all__ = [
     "Contact",
     "Excitation",
+    "Model",
     "Pedestal",
     "Rock",
     "Scenario",
@@ -321,6 +322,35 @@ class Toppling(Strict):
         return self
 
 
+class Model(Strict):
+    """What the scene compiler may simplify (model only what the scene requires).
+
+    Mass properties always come from the full closed mesh; these options choose only the
+    geometry used for contact. ``auto`` picks the smallest faithful model and the compiler
+    records each choice in the scene.
+
+    * ``collision``: ``primitive`` (boxes), ``boxes`` (exact box decomposition, e.g. the
+      notched block), ``hull`` (one convex hull), ``coacd`` (CoACD convex parts, for rocks
+      whose concavities can touch the pedestal), ``decimated`` (a mesh simplified away from
+      the base, basal patch kept at full resolution). ``auto``: primitive / boxes when exact,
+      else hull.
+    * ``pedestal``: ``plane`` for a flat pedestal (``auto`` does this for plane and box pedestals).
+    * ``basal_nodes``: number of contact nodes the reference solver uses on the rock's base
+      (``auto``: the convex-hull vertices near the base).
+    """
+
+    collision: Literal["auto", "primitive", "boxes", "hull", "coacd", "decimated"] = "auto"
+    coacd_threshold: Annotated[float, Field(gt=0, le=1)] = 0.05
+    decimate_cell: PositiveFloat | None = Field(
+        None, description="decimation cell size away from the base, m (default: 1/20 of the rock size)"
+    )
+    basal_band: PositiveFloat | None = Field(
+        None, description="height above the lowest point kept at full resolution / searched for nodes, m"
+    )
+    pedestal: Literal["auto", "plane", "as_given"] = "auto"
+    basal_nodes: Literal["auto"] | Annotated[int, Field(ge=3, le=100_000)] = "auto"
+
+
 class Scenario(Strict):
     """One rock on one pedestal under one ground motion."""
 
@@ -337,6 +367,7 @@ class Scenario(Strict):
     excitation: Excitation
     initial: InitialState = Field(default_factory=InitialState)
     toppling: Toppling = Field(default_factory=Toppling)
+    model: Model = Field(default_factory=Model)
     engines: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="per-engine settings overrides, e.g. [engines.mujoco]"
     )

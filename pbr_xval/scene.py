@@ -160,6 +160,8 @@ class Scene:
     toppling: sc.Toppling
     engine_settings: dict[str, dict[str, Any]]
     reductions: list[dict[str, str]] = field(default_factory=list)
+    collision: dict[str, Any] = field(default_factory=lambda: {"kind": "hull"})
+    basal_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     # ------------------------------------------------------------ geometry
     @property
@@ -276,18 +278,14 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
     if isinstance(rock, sc.BoxRock):
         mesh = shapes.box_mesh(np.array(rock.half_extents))
         primitive = {"type": "box", "half_extents": list(rock.half_extents)}
-        reductions.append({"what": "rock collision", "choice": "box primitive", "why": "the rock is a box"})
     elif isinstance(rock, sc.NotchedBlockRock):
         mesh = shapes.notched_block_mesh(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
         box_parts = shapes.notched_block_boxes(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
-        reductions.append(
-            {"what": "rock collision", "choice": "3 box parts", "why": "the notched block is exactly 3 boxes"}
-        )
     elif isinstance(rock, sc.CurvedBaseRock):
         mesh = shapes.curved_base_mesh(rock.H, rock.r, rock.h, rock.depth, rock.arc_segments)
         reductions.append(
             {
-                "what": "rock collision",
+                "what": "rock geometry",
                 "choice": f"extruded profile, {rock.arc_segments} facets per quarter arc",
                 "why": "3-D engines need a mesh of the curved base",
             }
@@ -296,7 +294,6 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
         from pbr_xval.geometry.mesh import load_rock_mesh
 
         mesh, info = load_rock_mesh(scn.resolve_path(rock.path), units=rock.units, orientation=rock.orientation)
-        reductions.append({"what": "rock collision", "choice": "convex hull", "why": "default for a mesh rock"})
     else:  # pragma: no cover - the union is closed
         raise TypeError(type(rock))
 
@@ -334,6 +331,55 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
         rotation=rz,
         info=info,
     )
+
+
+def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[str, str]]) -> dict[str, Any]:
+    """The rock's contact geometry (mass properties are always the full mesh's)."""
+    opt = scn.model
+    kind = opt.collision
+    if kind == "auto":
+        if rock.primitive is not None:
+            kind, why = "primitive", "the rock is a box"
+        elif rock.box_parts is not None:
+            kind, why = "boxes", f"the rock is exactly {len(rock.box_parts)} boxes"
+        else:
+            kind, why = "hull", "a flat pedestal touches only the convex hull (concavities cannot reach it)"
+    else:
+        why = "scenario model.collision"
+    if kind == "primitive" and rock.primitive is None:
+        raise sc.ScenarioError(
+            f"scenario {scn.name!r}: key 'model.collision': 'primitive' needs a box rock, found {rock.shape!r}"
+        )
+    if kind == "boxes" and rock.box_parts is None:
+        raise sc.ScenarioError(
+            f"scenario {scn.name!r}: key 'model.collision': 'boxes' needs a rock made of boxes, found {rock.shape!r}"
+        )
+    out: dict[str, Any] = {"kind": kind}
+    size = float(np.ptp(rock.mesh.vertices))
+    if kind == "coacd":
+        from pbr_xval.geometry.decompose import convex_parts, decomposition_report
+
+        parts = convex_parts(rock.mesh, threshold=opt.coacd_threshold, seed=scn.seed)
+        rep = decomposition_report(rock.mesh, parts)
+        out.update(
+            parts=[(np.asarray(p.vertices, float), np.asarray(p.faces, np.int64)) for p in parts],
+            report=rep,
+            threshold=opt.coacd_threshold,
+        )
+        why += f"; CoACD threshold {opt.coacd_threshold}: {rep['n_parts']} parts, volume error {rep['rel_volume_error']:+.2e}"
+    elif kind == "decimated":
+        from pbr_xval.geometry.reduce import decimate_keep_base
+
+        cell = opt.decimate_cell or size / 20
+        band = opt.basal_band or 0.02 * float(np.ptp(rock.mesh.vertices[:, 2]))
+        dec = decimate_keep_base(rock.mesh, cell, band)
+        out.update(parts=[(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))], cell=cell, band=band)
+        why += f"; {len(rock.mesh.faces)} → {len(dec.faces)} faces, cell {cell:.3g} m, base band {band:.3g} m kept"
+    elif kind == "hull":
+        hull = rock.mesh.convex_hull
+        why += f"; {len(hull.vertices)} hull vertices"
+    reductions.append({"what": "rock collision", "choice": kind, "why": why})
+    return out
 
 
 def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
@@ -390,12 +436,24 @@ def compile_scene(scn: sc.Scenario) -> Scene:
     if abs(direction[1]) < 1e-15:
         direction[1] = 0.0
 
+    collision = _choose_collision(scn, rock, reductions)
     ped = scn.pedestal
     if isinstance(ped, sc.PlanePedestal):
         pedestal: dict[str, Any] = {"kind": "plane"}
         reductions.append({"what": "pedestal", "choice": "plane", "why": "flat pedestal"})
     elif isinstance(ped, sc.BoxPedestal):
         pedestal = {"kind": "box", "half_extents": list(ped.half_extents)}
+        foot = rock.mesh.vertices[:, :2]
+        covers = bool(np.all(np.abs(foot) <= np.asarray(ped.half_extents[:2]) - 1e-9))
+        if scn.model.pedestal == "plane" or (scn.model.pedestal == "auto" and covers):
+            pedestal = {"kind": "plane", "from": "box"}
+            reductions.append({
+                "what": "pedestal",
+                "choice": "plane",
+                "why": "the box pedestal's top face extends beyond the rock's footprint: only that face can be touched",
+            })
+        else:
+            reductions.append({"what": "pedestal", "choice": "box", "why": "the rock overhangs the pedestal's edge"})
     else:
         from pbr_xval.geometry.mesh import load_mesh
 
@@ -408,6 +466,16 @@ def compile_scene(scn: sc.Scenario) -> Scene:
     horiz = _motion(scn.excitation, scn, uplift)
     vert = _motion(scn.excitation.vertical, scn, None) if scn.excitation.vertical is not None else None
     excitation = Excitation3D(horiz, az, vert)
+
+    from pbr_xval.geometry.reduce import basal_nodes
+
+    count = None if scn.model.basal_nodes == "auto" else int(scn.model.basal_nodes)
+    nodes = basal_nodes(rock.mesh.vertices, rock.com, count, scn.model.basal_band)
+    reductions.append({
+        "what": "basal nodes (reference solver)",
+        "choice": f"{len(nodes)} nodes",
+        "why": "convex-hull vertices below the COM" if count is None else f"support polygon filled with ~{count} nodes",
+    })
 
     theta0 = scn.initial.theta
     if scn.initial.theta_over_alpha is not None:
@@ -438,4 +506,6 @@ def compile_scene(scn: sc.Scenario) -> Scene:
         toppling=scn.toppling,
         engine_settings={k: dict(v) for k, v in scn.engines.items()},
         reductions=reductions,
+        collision=collision,
+        basal_nodes=nodes,
     )

@@ -139,8 +139,8 @@ def test_mesh_box_matches_primitive(base: dict[str, Any], faithful_threshold: fl
         compile_scene(_scenario(base, amplitude=5.0, duration=0.2, rock=scn.rock.model_dump())), "dart"
     )
     assert tr.diagnostics["rock_model"] == "convex hull mesh"
-    cache = Path(os.environ["PBR_XVAL_CACHE"]) / "dart"
-    assert list(cache.glob("hull_*.obj"))  # generated files go to the cache, not the repo
+    cache = Path(os.environ["PBR_XVAL_CACHE"]) / "obj"
+    assert list(cache.glob("dart_hull_*.obj"))  # generated files go to the cache, not the repo
 
 
 def test_notched_block_threshold(base: dict[str, Any]) -> None:

@@ -212,10 +212,10 @@ def test_notched_block_coacd_parts_are_cached(tmp_path, monkeypatch):
     lo = run_scene(scene_at(NOTCHED * 0.98, rock=rock), "pybullet", {"collision": "coacd"})
     assert lo.ok and not lo.toppled
     assert lo.diagnostics["collision"] == "coacd" and lo.diagnostics["n_parts"] == 3
-    parts = sorted(tmp_path.glob("coacd_obj/*/part_*.obj"))
-    assert len(parts) == 3
+    parts = sorted(tmp_path.glob("obj/pybullet_coacd_*.obj")) + sorted(tmp_path.rglob("coacd_*.npz"))
+    assert len(parts) == 4  # 3 part OBJ files and the cached decomposition
     mtimes = [f.stat().st_mtime_ns for f in parts]
     hi = run_scene(scene_at(NOTCHED * 1.02, rock=rock), "pybullet", {"collision": "coacd"})
     assert hi.ok and hi.toppled
     assert [f.stat().st_mtime_ns for f in parts] == mtimes  # reused, not rewritten
-    assert not list(Path(ROOT).rglob("part_*.obj"))  # nothing written into the repo
+    assert not list(Path(ROOT).rglob("pybullet_coacd_*.obj"))  # nothing written into the repo
