@@ -1,0 +1,470 @@
+"""Rocking histories: every engine once on one scenario, overlaid and measured against the analytical run.
+
+θ(t) (:meth:`Trajectory.rocking_angle`, normalised by the critical angle α of the side the
+rock leans to) of all engines goes in one figure, the COM path (plan view x–y and side view
+x–z) in another. Metrics per engine against the analytical reference trajectory
+(``reference_engine``, default ``housner``; ``curved_base`` is tried when it does not apply),
+all computed from the sampled trajectories so every engine is measured the same way:
+
+* peak |θ| and its relative error;
+* RMS of θ − θ_ref (θ_ref interpolated onto the engine's times) up to the reference's first
+  impact (rad);
+* uplift time: first time |θ| exceeds ``uplift_tol`` rad (the engine's own ``uplift`` event is
+  reported beside it);
+* impact times: the first three returns through θ = 0 after the rock has rocked
+  (|θ| > ``impact_tol``·α between crossings), linearly interpolated;
+* rebound ratios: the energy-equivalent method of :func:`pbr_xval.conformance.rebound_ratios`
+  (needs a planar two-pivot model; NaN otherwise);
+* energy drift: E = KE + PE of the rock in the pedestal frame, plus the work the inertial
+  (d'Alembert) force of the pedestal motion has done, so E is constant between impacts in exact
+  dynamics; the drift is the largest (max − min) of E within one inter-impact interval divided by
+  the largest rocking energy KE + m·g·Δz in it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from pbr_xval.engine import EngineNotAvailable, NotApplicable, Trajectory, get_engine
+from pbr_xval.scenario import Scenario
+from pbr_xval.study.base import Figure, StudyResult
+
+__all__ = [
+    "HistoriesConfig",
+    "energy_drift",
+    "impact_times",
+    "run",
+    "theta_over_alpha",
+    "uplift_time",
+]
+
+ANALYTICAL = ("housner", "curved_base")
+N_IMPACTS = 3
+
+
+class HistoriesConfig(BaseModel):
+    """Configuration of the histories study.
+
+    Attributes
+    ----------
+    values : scenario keys to set before running (e.g. ``{"excitation.amplitude": 5.0}``).
+    reference_engine : the analytical run every engine is measured against.
+    settings : per-engine settings overrides (may contain ``profile``).
+    uplift_tol : |θ| (rad) that counts as uplift.
+    impact_tol : fraction of α |θ| must exceed between two returns through θ = 0.
+    max_points : downsampling of the long-format θ table, per engine.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    type: Literal["histories"] = "histories"
+    values: dict[str, float] = Field(default_factory=dict)
+    reference_engine: str | None = "housner"
+    settings: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    uplift_tol: float = Field(1e-4, gt=0)
+    impact_tol: float = Field(0.01, gt=0, lt=1)
+    max_points: int = Field(2000, ge=10)
+
+
+# ------------------------------------------------------------------ measures
+def theta_over_alpha(traj: Trajectory, alpha: tuple[float, float]) -> np.ndarray:
+    """θ/α with α of the side the rock leans to (``alpha`` = (left, right) as in ``Scene.alpha``)."""
+    th = traj.rocking_angle()
+    return np.where(th >= 0, th / alpha[1], th / alpha[0])
+
+
+def uplift_time(t: np.ndarray, theta: np.ndarray, tol: float) -> float:
+    """First time |θ| ≥ ``tol`` (rad), NaN if never."""
+    idx = np.nonzero(np.abs(theta) >= tol)[0]
+    return float(t[idx[0]]) if idx.size else float("nan")
+
+
+def impact_times(t: np.ndarray, theta: np.ndarray, tol: float, n: int | None = None) -> np.ndarray:
+    """Times of the returns through θ = 0 after an excursion beyond ±``tol`` (rad).
+
+    Consecutive samples with |θ| > tol are grouped into excursions; where two successive
+    excursions have opposite signs, the last sign change of θ between them is the impact
+    (linearly interpolated). A rock that comes back to rest and leaves again on the same side
+    gives no impact.
+    """
+    big = np.abs(theta) > tol
+    idx = np.nonzero(big)[0]
+    out: list[float] = []
+    if idx.size < 2:
+        return np.zeros(0)
+    sgn = np.sign(theta[idx])
+    changes = np.nonzero(np.diff(sgn) != 0)[0]
+    for k in changes:
+        i0, i1 = idx[k], idx[k + 1]
+        seg = theta[i0 : i1 + 1]
+        s = np.sign(seg)
+        flips = np.nonzero(s[:-1] * s[1:] <= 0)[0]
+        j = i0 + (flips[-1] if flips.size else 0)
+        a, b = theta[j], theta[j + 1]
+        frac = a / (a - b) if a != b else 0.0
+        out.append(float(t[j] + frac * (t[j + 1] - t[j])))
+        if n is not None and len(out) >= n:
+            break
+    return np.asarray(out)
+
+
+def energy_drift(traj: Trajectory, scene: Any, impacts: np.ndarray, *, margin: int = 3,
+                 min_energy: float = 0.01) -> float:
+    """Largest relative change of the rock's energy between impacts (see the module docstring).
+
+    E = ½ m |v|² + ½ ωᵀ I_w ω + m g z + W, with v from finite differences of the COM, I_w the
+    inertia rotated to the world frame, and W = ∫ m a_g · v dt the work against the pedestal's
+    inertial force. Samples within ``margin`` sample intervals of an impact are dropped, and so
+    are intervals whose rocking energy stays below ``min_energy`` × the run's largest (the
+    chatter of a rock coming to rest). NaN when no interval qualifies.
+    """
+    t = traj.t
+    if t.size < 8:
+        return float("nan")
+    m = float(scene.rock.mass)
+    g = float(scene.gravity)
+    com = traj.com
+    v = np.gradient(com, t, axis=0)
+    rot = traj.rotation_matrices()
+    i_body = np.asarray(scene.rock.inertia, dtype=float)
+    iw = np.einsum("nij,jk,nlk->nil", rot, i_body, rot)
+    w = traj.omega
+    ke = 0.5 * m * np.einsum("ni,ni->n", v, v) + 0.5 * np.einsum("ni,nij,nj->n", w, iw, w)
+    pe = m * g * (com[:, 2] - com[0, 2])
+    ag = np.asarray(scene.excitation.acceleration(t), dtype=float)
+    power = m * np.einsum("ni,ni->n", ag, v)
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
+    e = ke + pe + work
+    rock_e = ke + pe
+    th = traj.rocking_angle()
+    nz = np.nonzero(th != 0.0)[0]
+    k = np.nonzero(np.sign(th[nz[:-1]]) != np.sign(th[nz[1:]]))[0]
+    # every return through θ = 0 is a possible impact (chatter below the impact tolerance too)
+    edges = np.unique(np.concatenate([[t[0]], impacts, t[nz[k]], t[nz[k + 1]], [t[-1]]]))
+    worst = float("nan")
+    dt = float(np.median(np.diff(t)))
+    alive = np.ones(t.size, dtype=bool) if traj.toppled_at is None else t < traj.toppled_at
+    floor = min_energy * float(np.max(rock_e[alive])) if alive.any() else 0.0
+    for a, b in itertools.pairwise(edges):
+        sel = (t > a + margin * dt) & (t < b - margin * dt)
+        if traj.toppled_at is not None:
+            sel &= t < traj.toppled_at
+        if sel.sum() < 8:
+            continue
+        scale = float(np.max(rock_e[sel]))
+        if scale <= max(floor, 1e-12):
+            continue
+        d = float((np.max(e[sel]) - np.min(e[sel])) / scale)
+        worst = d if not math.isfinite(worst) else max(worst, d)
+    return worst
+
+
+def _interp(t_ref: np.ndarray, y_ref: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return np.interp(t, t_ref, y_ref, left=np.nan, right=np.nan)
+
+
+def _downsample(n: int, k: int) -> np.ndarray:
+    if n <= k:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, k).round().astype(int))
+
+
+# ------------------------------------------------------------------ study
+def _simulate(scene: Any, name: str, settings: dict[str, Any] | None) -> tuple[Trajectory | None, str, str]:
+    """(trajectory, status, message); status is ok | failed | skipped."""
+    from pbr_xval.runner import run_scene
+
+    try:
+        get_engine(name)
+    except EngineNotAvailable as exc:
+        return None, "skipped", f"not available: {exc}"
+    try:
+        traj = run_scene(scene, name, settings)
+    except NotApplicable as exc:
+        return None, "skipped", f"not applicable: {exc}"
+    except Exception as exc:
+        return None, "failed", f"{type(exc).__name__}: {exc}"
+    if not traj.ok:
+        return traj, "failed", traj.message
+    return traj, "ok", ""
+
+
+def run(
+    config: HistoriesConfig,
+    scenario: Scenario,
+    engines: Sequence[str],
+    *,
+    progress: Callable[[str, float], None] | None = None,
+) -> StudyResult:
+    """Run every engine once and compare the histories; see the module docstring."""
+    import pandas as pd
+
+    from pbr_xval.conformance import rebound_ratios
+    from pbr_xval.scene import compile_scene
+
+    t_start = time.perf_counter()
+    scn = scenario
+    for k, v in config.values.items():
+        scn = scn.with_value(k, v)
+    scene = compile_scene(scn)
+    alpha = scene.alpha
+    a_ref = min(alpha)
+    order = list(dict.fromkeys(engines))
+    notes: list[str] = []
+    runs: dict[str, tuple[Trajectory | None, str, str]] = {}
+
+    ref_name = config.reference_engine
+    candidates = [ref_name] + [a for a in ANALYTICAL if a != ref_name] if ref_name else []
+    n_total = len(order) + (0 if (ref_name in order or not ref_name) else 1)
+    done = 0
+
+    def sim(name: str) -> tuple[Trajectory | None, str, str]:
+        nonlocal done
+        if progress is not None:
+            progress(f"histories: {name}", done / max(n_total, 1))
+        out = _simulate(scene, name, config.settings.get(name))
+        done += 1
+        return out
+
+    ref_used: str | None = None
+    for cand in candidates:
+        r = runs.get(cand) or sim(cand)
+        if cand in order or r[1] == "ok":
+            runs[cand] = r
+        if r[1] == "ok":
+            ref_used = cand
+            if cand not in order:
+                notes.append(f"reference engine {cand!r} run in addition to the engines compared")
+            break
+        notes.append(f"reference engine {cand!r} not used: {r[2]}")
+        if not r[2].startswith("not applicable"):
+            break
+    if ref_used and ref_name and ref_used != ref_name:
+        notes.append(f"reference engine {ref_name!r} does not apply; using {ref_used!r}")
+    for name in order:
+        if name not in runs:
+            runs[name] = sim(name)
+    if progress is not None:
+        progress("histories: metrics", 1.0)
+
+    shown = list(dict.fromkeys([*([ref_used] if ref_used else []), *order]))
+    # reference quantities
+    ref = runs[ref_used][0] if ref_used else None
+    ref_q: dict[str, Any] = {}
+    quantities: dict[str, dict[str, Any]] = {}
+    for name in shown:
+        traj, status, msg = runs[name]
+        if status != "ok" or traj is None or traj.t.size == 0:
+            continue
+        th = traj.rocking_angle()
+        imp = impact_times(traj.t, th, config.impact_tol * a_ref)
+        try:
+            ratios = rebound_ratios(traj, scene)
+        except NotApplicable:
+            ratios = np.zeros(0)
+        except Exception:
+            ratios = np.zeros(0)
+        quantities[name] = {
+            "theta": th,
+            "peak": float(np.max(np.abs(th))),
+            "uplift": uplift_time(traj.t, th, config.uplift_tol),
+            "uplift_event": next((e.t for e in traj.events if e.kind == "uplift"), float("nan")),
+            "impacts": imp,
+            "ratios": ratios,
+            "drift": energy_drift(traj, scene, imp),
+        }
+    if ref is not None and ref_used in quantities:
+        ref_q = quantities[ref_used]
+
+    rows: list[dict[str, Any]] = []
+    long_rows: list[pd.DataFrame] = []
+    for name in shown:
+        traj, status, msg = runs[name]
+        row: dict[str, Any] = {"engine": name, "status": status, "message": msg}
+        q = quantities.get(name)
+        if q is None or traj is None:
+            rows.append(row)
+            continue
+        row.update({
+            "profile": str(traj.settings.get("profile", "")),
+            "toppled": traj.toppled,
+            "toppled_at_s": _nan(traj.toppled_at),
+            "peak_theta_rad": q["peak"],
+            "peak_theta_over_alpha": q["peak"] / a_ref,
+            "uplift_t_s": q["uplift"],
+            "uplift_event_t_s": q["uplift_event"],
+        })
+        for i in range(N_IMPACTS):
+            row[f"impact{i + 1}_t_s"] = float(q["impacts"][i]) if q["impacts"].size > i else float("nan")
+        for i in range(N_IMPACTS):
+            row[f"rebound{i + 1}"] = float(q["ratios"][i]) if q["ratios"].size > i else float("nan")
+        row["energy_drift_rel"] = q["drift"]
+        if ref_q:
+            row["peak_rel_error"] = q["peak"] / ref_q["peak"] - 1.0 if ref_q["peak"] > 0 else float("nan")
+            t_end = float(ref_q["impacts"][0]) if ref_q["impacts"].size else float(ref.t[-1])
+            sel = traj.t <= t_end
+            th_ref = _interp(ref.t, ref_q["theta"], traj.t[sel])
+            diff = q["theta"][sel] - th_ref
+            diff = diff[np.isfinite(diff)]
+            row["rms_theta_err_to_impact1_rad"] = float(np.sqrt(np.mean(diff**2))) if diff.size else float("nan")
+            row["uplift_dt_s"] = q["uplift"] - ref_q["uplift"]
+            for i in range(N_IMPACTS):
+                row[f"impact{i + 1}_dt_s"] = row[f"impact{i + 1}_t_s"] - (
+                    float(ref_q["impacts"][i]) if ref_q["impacts"].size > i else float("nan"))
+            for i in range(N_IMPACTS):
+                row[f"rebound{i + 1}_diff"] = row[f"rebound{i + 1}"] - (
+                    float(ref_q["ratios"][i]) if ref_q["ratios"].size > i else float("nan"))
+        row["wall_s"] = traj.wall_time
+        row["settings"] = json.dumps(traj.settings, sort_keys=True, default=str)
+        row["versions"] = json.dumps(traj.versions, sort_keys=True, default=str)
+        rows.append(row)
+        keep = _downsample(traj.t.size, config.max_points)
+        toa = np.where(q["theta"] >= 0, q["theta"] / alpha[1], q["theta"] / alpha[0])
+        long_rows.append(pd.DataFrame({"t": traj.t[keep], "engine": name, "theta_over_alpha": toa[keep]}))
+
+    metrics = pd.DataFrame(rows)
+    theta_df = (pd.concat(long_rows, ignore_index=True) if long_rows
+                else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"]))
+    com_df = _com_table(runs, shown, config.max_points)
+
+    for name in shown:
+        _, status, msg = runs[name]
+        if status == "skipped":
+            notes.append(f"{name}: skipped ({msg})")
+        elif status == "failed":
+            notes.append(f"{name}: FAILED ({msg})")
+
+    figs = [_theta_figure(theta_df, ref_used, scn.name), _com_figure(com_df, scn.name)]
+    summary = _summary(metrics, ref_used, scn, config)
+    headline = {}
+    for r in rows:
+        if "peak_rel_error" in r:
+            headline[r["engine"]] = {"peak_rel_error": _json_num(r["peak_rel_error"]),
+                                     "rms_theta_err_to_impact1_rad": _json_num(r["rms_theta_err_to_impact1_rad"])}
+    return StudyResult(
+        kind="histories",
+        title=f"Rocking histories — {scn.name}",
+        tables={"histories_metrics": metrics, "histories_theta": theta_df, "histories_com": com_df},
+        figures=figs,
+        summary=summary,
+        headline=headline,
+        provenance={
+            "scenario": scn.name,
+            "scenario_hash": scn.content_hash(),
+            "base_scenario_hash": scenario.content_hash(),
+            "values": dict(config.values),
+            "config": config.model_dump(mode="json"),
+            "reference_engine": ref_used,
+            "alpha_rad": list(alpha),
+            "settings": {n: runs[n][0].settings for n in shown if runs[n][0] is not None},
+            "versions": {n: runs[n][0].versions for n in shown if runs[n][0] is not None},
+        },
+        notes=notes,
+        wall_time=time.perf_counter() - t_start,
+    )
+
+
+def _nan(x: float | None) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def _json_num(x: float) -> float | None:
+    return None if x is None or not math.isfinite(x) else float(x)
+
+
+def _com_table(runs: dict[str, Any], shown: list[str], k: int) -> Any:
+    import pandas as pd
+
+    parts = []
+    for name in shown:
+        traj = runs[name][0]
+        if traj is None or runs[name][1] != "ok" or traj.t.size == 0:
+            continue
+        keep = _downsample(traj.t.size, k)
+        parts.append(pd.DataFrame({"t": traj.t[keep], "engine": name, "com_x_m": traj.com[keep, 0],
+                                   "com_y_m": traj.com[keep, 1], "com_z_m": traj.com[keep, 2]}))
+    return (pd.concat(parts, ignore_index=True) if parts
+            else pd.DataFrame(columns=["t", "engine", "com_x_m", "com_y_m", "com_z_m"]))
+
+
+def _fmt(x: Any, spec: str) -> str:
+    try:
+        xf = float(x)
+    except (TypeError, ValueError):
+        return "—"
+    return "—" if not math.isfinite(xf) else format(xf, spec)
+
+
+def _summary(metrics: Any, ref_used: str | None, scn: Scenario, cfg: HistoriesConfig) -> list[str]:
+    vals = ", ".join(f"{k} = {v:g}" for k, v in cfg.values.items()) or "as given"
+    out = [f"**Rocking histories** of `{scn.name}` ({vals}); reference: {ref_used or 'none'}", "",
+           "| engine | peak θ/α | peak err | RMS θ err to 1st impact (rad) | uplift s | 1st impact s | "
+           "rebound 1 | energy drift | wall s |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for _, r in metrics.iterrows():
+        if r.get("status") != "ok":
+            out.append(f"| {r['engine']} | {r.get('status')} | | | | | | | |")
+            continue
+        pe = r.get("peak_rel_error", float("nan"))
+        out.append(
+            f"| {r['engine']} | {_fmt(r['peak_theta_over_alpha'], '.4f')} | "
+            f"{'—' if not math.isfinite(pe) else f'{pe:+.2%}'} | "
+            f"{_fmt(r.get('rms_theta_err_to_impact1_rad'), '.2e')} | {_fmt(r['uplift_t_s'], '.4f')} | "
+            f"{_fmt(r['impact1_t_s'], '.4f')} | {_fmt(r['rebound1'], '.4f')} | "
+            f"{_fmt(r['energy_drift_rel'], '.2e')} | {_fmt(r['wall_s'], '.2f')} |"
+        )
+    return out
+
+
+def _theta_figure(df: Any, ref_used: str | None, name: str) -> Figure:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    for i, (eng, sub) in enumerate(df.groupby("engine", sort=False)):
+        is_ref = eng == ref_used
+        ax.plot(sub["t"], sub["theta_over_alpha"], lw=2.2 if is_ref else 1.2, color="k" if is_ref else f"C{i}",
+                ls="-" if is_ref else "--", label=f"{eng} (reference)" if is_ref else eng, zorder=2 if is_ref else 3)
+    for y in (-1.0, 1.0):
+        ax.axhline(y, color="0.6", lw=0.8, ls=":")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("θ / α")
+    ax.set_title(f"rocking angle — {name}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return Figure(name="histories_theta", figure=fig, table="histories_theta",
+                  caption="Rocking angle θ normalised by the critical angle α of the side the rock leans to; "
+                          "the black line is the analytical reference, ±1 marks toppling.")
+
+
+def _com_figure(df: Any, name: str) -> Figure:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
+    for i, (eng, sub) in enumerate(df.groupby("engine", sort=False)):
+        a1.plot(sub["com_x_m"], sub["com_y_m"], color=f"C{i}", lw=1.2, label=eng)
+        a2.plot(sub["com_x_m"], sub["com_z_m"], color=f"C{i}", lw=1.2, label=eng)
+    a1.set_xlabel("x [m]")
+    a1.set_ylabel("y [m]")
+    a1.set_title("COM path, plan view")
+    a2.set_xlabel("x [m]")
+    a2.set_ylabel("z [m]")
+    a2.set_title("COM path, side view")
+    a1.legend(fontsize=8)
+    fig.suptitle(name)
+    fig.tight_layout()
+    return Figure(name="histories_com", figure=fig, table="histories_com",
+                  caption="Centre-of-mass path in the pedestal frame: plan view (x–y) and side view (x–z).")

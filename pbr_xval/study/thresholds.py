@@ -1,0 +1,349 @@
+"""Threshold study: every engine's toppling threshold(s) of one scenario parameter.
+
+For each engine :func:`~pbr_xval.study.threshold.find_threshold` scans the parameter on a
+geometric grid and bisects *every* transition (overturning is not monotonic in amplitude,
+Zhang & Makris 2001), so the study reports every toppling band, not only the minimum. The
+minimum is compared with an independent reference value (e.g. Housner's nonlinear 5.638 m/s²)
+and with an analytical reference engine run on the same scenario.
+
+Tables
+------
+``thresholds`` — one row per engine: minimum and its ± tolerance, number of bands,
+simulations spent, wall time, relative errors, settings and versions (JSON).
+``bands`` — one row per toppling band: start and end (NaN = still toppling at the top of the
+scanned range) with their tolerances.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from pbr_xval.engine import EngineNotAvailable, NotApplicable, get_engine
+from pbr_xval.scenario import Scenario
+from pbr_xval.study.base import Figure, StudyResult
+from pbr_xval.study.threshold import ThresholdResult, find_threshold
+
+__all__ = ["ThresholdsConfig", "param_unit", "run"]
+
+#: analytical engines, tried in this order when the configured reference does not apply
+ANALYTICAL = ("housner", "curved_base")
+
+_UNITS = {
+    "amplitude": "m_s2",
+    "pga": "m_s2",
+    "target_pga": "m_s2",
+    "pgv": "m_s",
+    "target_pgv": "m_s",
+    "period": "s",
+    "pulse_duration": "s",
+    "frequency": "Hz",
+    "r": "m",
+    "h": "m",
+    "H": "m",
+    "friction_static": "1",
+    "scale": "1",
+}
+
+
+def param_unit(param: str) -> str:
+    """Column-name unit suffix of a dotted scenario key (``excitation.amplitude`` → ``m_s2``)."""
+    return _UNITS.get(param.rsplit(".", 1)[-1], "")
+
+
+def _col(name: str, unit: str) -> str:
+    return f"{name}_{unit}" if unit else name
+
+
+class ThresholdsConfig(BaseModel):
+    """Configuration of the threshold study.
+
+    Attributes
+    ----------
+    param : dotted scenario key searched (e.g. ``excitation.amplitude``).
+    lo, hi : scan range; default 0.5× and 2× the scenario's value.
+    n_grid : coarse grid points (geometric); rel_tol : bisection tolerance (relative).
+    reference : an independent published/analytical value to compare the minima with.
+    reference_engine : analytical engine run on the same scenario as a second reference
+        (``housner`` or ``curved_base``; when it does not apply the other one is tried).
+    settings : per-engine settings overrides (may contain ``profile``).
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    type: Literal["thresholds"] = "thresholds"
+    param: str = "excitation.amplitude"
+    lo: float | None = Field(None, gt=0)
+    hi: float | None = Field(None, gt=0)
+    n_grid: int = Field(16, ge=2)
+    rel_tol: float = Field(1e-4, gt=0, lt=1)
+    reference: float | None = None
+    reference_engine: str | None = "housner"
+    settings: dict[str, dict[str, Any]] = Field(default_factory=dict)
+
+
+def _nan(x: float | None) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def _expected_sims(cfg: ThresholdsConfig, lo: float, hi: float) -> int:
+    step = (hi / lo) ** (1.0 / max(cfg.n_grid - 1, 1)) - 1.0
+    return cfg.n_grid + max(1, math.ceil(math.log2(max(step, cfg.rel_tol) / cfg.rel_tol)))
+
+
+def run(
+    config: ThresholdsConfig,
+    scenario: Scenario,
+    engines: Sequence[str],
+    *,
+    progress: Callable[[str, float], None] | None = None,
+) -> StudyResult:
+    """Find every engine's toppling bands in ``config.param``; see the module docstring."""
+    import pandas as pd
+
+    t_start = time.perf_counter()
+    unit = param_unit(config.param)
+    v0 = float(scenario.get_value(config.param))
+    lo = 0.5 * v0 if config.lo is None else float(config.lo)
+    hi = 2.0 * v0 if config.hi is None else float(config.hi)
+    notes: list[str] = []
+    order = list(dict.fromkeys(engines))
+    ref_name = config.reference_engine
+    candidates = [ref_name] + [a for a in ANALYTICAL if a != ref_name] if ref_name else []
+    n_total = max(len(order), 1) + (1 if ref_name and ref_name not in order else 0)
+    expected = _expected_sims(config, lo, hi)
+
+    results: dict[str, ThresholdResult] = {}
+    failures: dict[str, str] = {}
+    skipped: dict[str, str] = {}
+    done = 0
+
+    def search(name: str) -> ThresholdResult | None:
+        nonlocal done
+        if progress is not None:
+            progress(f"thresholds: {name}", done / n_total)
+
+        def cb(count: int, value: float, toppled: bool) -> None:
+            if progress is not None:
+                frac = min(count / expected, 0.99)
+                progress(f"thresholds: {name} #{count} {config.param}={value:.6g} "
+                         f"{'topples' if toppled else 'stands'}", (done + frac) / n_total)
+
+        try:
+            get_engine(name)
+            res = find_threshold(
+                scenario, name, config.param, lo=lo, hi=hi, n_grid=config.n_grid, rel_tol=config.rel_tol,
+                settings=config.settings.get(name), all_transitions=True, progress=cb,
+            )
+        except EngineNotAvailable as exc:
+            skipped[name] = f"not available: {exc}"
+            return None
+        except NotApplicable as exc:
+            skipped[name] = f"not applicable: {exc}"
+            return None
+        except Exception as exc:  # an engine failure is a result, not a crash
+            failures[name] = f"{type(exc).__name__}: {exc}"
+            return None
+        finally:
+            done += 1
+        return res
+
+    # the analytical reference engine (possibly not in the list of engines compared)
+    ref_used: str | None = None
+    for cand in candidates:
+        if cand in order:
+            res = search(cand)
+            if res is not None:
+                results[cand] = res
+                ref_used = cand
+                break
+            if cand in skipped and skipped[cand].startswith("not applicable"):
+                continue
+            break
+        res = search(cand)
+        if res is not None:
+            results[cand] = res
+            ref_used = cand
+            notes.append(f"reference engine {cand!r} run in addition to the engines compared")
+            break
+        reason = skipped.pop(cand, None) or failures.pop(cand, "")
+        notes.append(f"reference engine {cand!r} not used: {reason}")
+        if not reason.startswith("not applicable"):
+            break
+    if ref_name and ref_used is None:
+        notes.append("no analytical reference engine applies to this scenario")
+    elif ref_used and ref_used != ref_name:
+        notes.append(f"reference engine {ref_name!r} does not apply; using {ref_used!r}")
+
+    for name in order:
+        if name in results or name in skipped or name in failures:
+            continue
+        res = search(name)
+        if res is not None:
+            results[name] = res
+
+    for name, why in skipped.items():
+        notes.append(f"{name}: skipped ({why})")
+    for name, why in failures.items():
+        notes.append(f"{name}: FAILED ({why})")
+
+    ref_min = results[ref_used].minimum if ref_used else None
+    rows: list[dict[str, Any]] = []
+    band_rows: list[dict[str, Any]] = []
+    shown = [n for n in dict.fromkeys([*([ref_used] if ref_used else []), *order])]
+    for name in shown:
+        res = results.get(name)
+        if res is None:
+            status = "skipped" if name in skipped else "failed"
+            rows.append({
+                "engine": name, "status": status, "message": skipped.get(name) or failures.get(name, ""),
+                "profile": (config.settings.get(name) or {}).get("profile", ""),
+                "param": config.param,
+                _col("minimum", unit): float("nan"), _col("tolerance", unit): float("nan"),
+                "n_bands": 0, "n_simulations": 0, "wall_s": float("nan"),
+                "rel_error_vs_reference": float("nan"), "rel_error_vs_reference_engine": float("nan"),
+                "settings": json.dumps(config.settings.get(name) or {}, sort_keys=True, default=str),
+                "versions": "{}",
+            })
+            continue
+        bands = res.bands()
+        mn = res.minimum
+        rows.append({
+            "engine": name,
+            "status": "ok" if mn is not None else "never_toppled",
+            "message": "" if mn is not None else f"no toppling in [{lo:.6g}, {hi:.6g}]",
+            "profile": str(res.settings.get("profile", "")),
+            "param": config.param,
+            _col("minimum", unit): _nan(mn),
+            _col("tolerance", unit): _nan(res.tolerance) if not (res.grid_toppled.size and res.grid_toppled[0])
+            else 0.0,
+            "n_bands": len(bands),
+            "n_simulations": res.n_simulations,
+            "wall_s": res.wall_time,
+            "rel_error_vs_reference": (mn / config.reference - 1.0) if (mn is not None and config.reference)
+            else float("nan"),
+            "rel_error_vs_reference_engine": (mn / ref_min - 1.0) if (mn is not None and ref_min) else float("nan"),
+            "settings": json.dumps(res.settings, sort_keys=True, default=str),
+            "versions": json.dumps(res.versions, sort_keys=True, default=str),
+        })
+        if res.grid_toppled.size and res.grid_toppled[0]:
+            notes.append(f"{name}: already toppling at the bottom of the scan ({lo:.6g}); the minimum is ≤ that")
+        for i, b in enumerate(bands):
+            band_rows.append({
+                "engine": name,
+                "band": i,
+                _col("band_start", unit): b.start,
+                _col("band_end", unit): _nan(b.end),
+                _col("start_tol", unit): b.start_tol,
+                _col("end_tol", unit): _nan(b.end_tol),
+            })
+
+    table = pd.DataFrame(rows)
+    bands_df = pd.DataFrame(band_rows, columns=["engine", "band", _col("band_start", unit), _col("band_end", unit),
+                                                _col("start_tol", unit), _col("end_tol", unit)])
+    figs = [_figure(table, bands_df, config, unit, ref_used, ref_min, lo, hi)]
+
+    summary = [f"**Thresholds** of `{config.param}` on `{scenario.name}` (scan {lo:.6g}–{hi:.6g}, "
+               f"rel. tol {config.rel_tol:g})", "",
+               f"| engine | minimum | ± | bands | sims | vs reference | vs {ref_used or '—'} | wall s |",
+               "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        mn = r[_col("minimum", unit)]
+        if r["status"] in ("skipped", "failed"):
+            summary.append(f"| {r['engine']} | {r['status']} | | | | | | |")
+            continue
+        summary.append(
+            f"| {r['engine']} | {_fmt(mn)} | {_fmt(r[_col('tolerance', unit)], '.2g')} | {r['n_bands']} | "
+            f"{r['n_simulations']} | {_pct(r['rel_error_vs_reference'])} | "
+            f"{_pct(r['rel_error_vs_reference_engine'])} | {r['wall_s']:.1f} |"
+        )
+    if config.reference is not None:
+        summary.append("")
+        summary.append(f"Reference value: {config.reference:g}.")
+    multi = [n for n, r in results.items() if len(r.bands()) > 1]
+    if multi:
+        summary.append(f"Non-monotonic (more than one toppling band): {', '.join(multi)}.")
+
+    return StudyResult(
+        kind="thresholds",
+        title=f"Toppling thresholds: {config.param} — {scenario.name}",
+        tables={"thresholds": table, "bands": bands_df},
+        figures=figs,
+        summary=summary,
+        headline={n: (None if r.minimum is None else float(r.minimum)) for n, r in results.items()},
+        provenance={
+            "scenario": scenario.name,
+            "scenario_hash": scenario.content_hash(),
+            "config": config.model_dump(mode="json"),
+            "scan": {"lo": lo, "hi": hi},
+            "reference_engine": ref_used,
+            "settings": {n: r.settings for n, r in results.items()},
+            "versions": {n: r.versions for n, r in results.items()},
+        },
+        notes=notes,
+        wall_time=time.perf_counter() - t_start,
+    )
+
+
+def _fmt(x: float, spec: str = ".6g") -> str:
+    return "—" if x is None or not math.isfinite(x) else format(x, spec)
+
+
+def _pct(x: float) -> str:
+    return "—" if x is None or not math.isfinite(x) else f"{x:+.3%}"
+
+
+def _figure(table: Any, bands: Any, cfg: ThresholdsConfig, unit: str, ref_used: str | None,
+            ref_min: float | None, lo: float, hi: float) -> Figure:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    ok = table[np.isfinite(table[_col("minimum", unit)])]
+    multi = bool((table["n_bands"] > 1).any())
+    ncols = 2 if multi else 1
+    fig, axes = plt.subplots(1, ncols, figsize=(5.5 * ncols + 1, 4.0), squeeze=False)
+    ax = axes[0, 0]
+    x = np.arange(len(ok))
+    ax.errorbar(x, ok[_col("minimum", unit)], yerr=ok[_col("tolerance", unit)].fillna(0.0), fmt="o", capsize=5,
+                color="C0", label="minimum toppling value")
+    if cfg.reference is not None:
+        ax.axhline(cfg.reference, color="k", lw=1, label=f"reference {cfg.reference:g}")
+    if ref_min is not None:
+        ax.axhline(ref_min, color="C3", lw=1, ls="--", label=f"{ref_used} {ref_min:.6g}")
+    ax.set_xticks(x, list(ok["engine"]), rotation=30, ha="right")
+    ax.set_ylabel(f"{cfg.param} [{unit.replace('_', '/')}]" if unit else cfg.param)
+    ax.set_title("minimum toppling value")
+    ax.legend(fontsize=8)
+    if multi:
+        ax2 = axes[0, 1]
+        names = list(table["engine"])
+        for i, name in enumerate(names):
+            sub = bands[bands["engine"] == name]
+            for _, b in sub.iterrows():
+                end = b[_col("band_end", unit)]
+                end = hi if not np.isfinite(end) else end
+                ax2.plot([b[_col("band_start", unit)], end], [i, i], lw=8, color="C1", solid_capstyle="butt")
+        ax2.set_yticks(range(len(names)), names)
+        ax2.set_xlim(lo, hi)
+        ax2.set_xscale("log")
+        ax2.set_xlabel(cfg.param)
+        ax2.set_title("toppling bands (scanned range)")
+        if cfg.reference is not None:
+            ax2.axvline(cfg.reference, color="k", lw=1)
+    fig.tight_layout()
+    return Figure(
+        name="thresholds",
+        figure=fig,
+        table="thresholds",
+        caption=(f"Minimum toppling value of {cfg.param} per engine (error bars: ± bisection tolerance); "
+                 "solid line: reference value, dashed: analytical reference engine"
+                 + ("; right: every toppling band found in the scanned range." if multi else ".")),
+    )
