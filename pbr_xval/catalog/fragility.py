@@ -1,0 +1,229 @@
+"""Lognormal fragility fits by maximum likelihood (Baker 2015) and a 2-D PGA × PGV/PGA surface.
+
+``P(topple | IM = x) = Φ(ln(x/θ)/β)``. With ``n_j`` runs and ``z_j`` topples at IM level
+``x_j`` the binomial log-likelihood is ``Σ z_j ln Φ_j + (n_j − z_j) ln(1 − Φ_j)`` (Baker 2015,
+Earthquake Spectra 31(1), eq. 11); θ and β maximise it (optimised in ln θ, ln β). Degenerate
+data get no fake fit: all toppled, none toppled, or complete separation (every non-toppled
+level below every toppled level: the MLE has β → 0) are reported as such.
+
+The surface is a probit GLM ``P = Φ(b0 + b1 ln PGA + b2 ln(PGV/PGA))`` by maximum likelihood
+(scipy.optimize); its median-PGA line is ``ln PGA50 = −(b0 + b2 ln(PGV/PGA))/b1``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import optimize, stats
+
+__all__ = ["FragilityFit", "SurfaceFit", "compare_medians", "fit_catalog", "fit_lognormal", "fit_surface"]
+
+_EPS = 1e-12
+
+
+@dataclass
+class FragilityFit:
+    """θ: median (IM units), β: lognormal dispersion; status ``ok`` | ``all_toppled`` |
+    ``none_toppled`` | ``separated`` | ``too_few`` | ``failed``."""
+
+    im: str
+    theta: float
+    beta: float
+    n_runs: int
+    n_toppled: int
+    levels: list[float] = field(default_factory=list)
+    n_per_level: list[int] = field(default_factory=list)
+    z_per_level: list[int] = field(default_factory=list)
+    converged: bool = False
+    status: str = "ok"
+    message: str = ""
+    loglik: float = math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def probability(self, x: Any) -> Any:
+        return stats.norm.cdf(np.log(np.asarray(x, float) / self.theta) / self.beta)
+
+
+def _group(im: np.ndarray, toppled: np.ndarray, rel: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    order = np.argsort(im)
+    im, toppled = im[order], toppled[order]
+    levels: list[float] = []
+    n: list[int] = []
+    z: list[int] = []
+    for x, t in zip(im, toppled, strict=True):
+        if levels and abs(x - levels[-1]) <= rel * max(abs(x), 1.0):
+            n[-1] += 1
+            z[-1] += int(t)
+        else:
+            levels.append(float(x))
+            n.append(1)
+            z.append(int(t))
+    return np.array(levels), np.array(n), np.array(z)
+
+
+def _nll(params: np.ndarray, lx: np.ndarray, n: np.ndarray, z: np.ndarray) -> float:
+    mu, lb = params
+    s = (lx - mu) / math.exp(lb)
+    lp = stats.norm.logcdf(s)
+    lq = stats.norm.logcdf(-s)
+    return float(-(z * lp + (n - z) * lq).sum())
+
+
+def fit_lognormal(im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2) -> FragilityFit:
+    """Maximum-likelihood lognormal fragility from (IM value, toppled) pairs; IM > 0."""
+    x = np.asarray(im, float)
+    t = np.asarray(toppled, bool)
+    keep = np.isfinite(x) & (x > 0)
+    x, t = x[keep], t[keep]
+    levels, n, z = _group(x, t)
+    fit = FragilityFit(im_name, math.nan, math.nan, int(n.sum()), int(z.sum()), levels.tolist(), n.tolist(), z.tolist())
+    if fit.n_runs < min_runs:
+        fit.status, fit.message = "too_few", f"{fit.n_runs} runs; need at least {min_runs}"
+        return fit
+    if fit.n_toppled == fit.n_runs:
+        fit.status, fit.message = "all_toppled", f"all {fit.n_runs} runs toppled (θ < {levels.min():.4g})"
+        return fit
+    if fit.n_toppled == 0:
+        fit.status, fit.message = "none_toppled", f"no run toppled (θ > {levels.max():.4g})"
+        return fit
+    top_lo = x[t].min()
+    stay_hi = x[~t].max()
+    if stay_hi < top_lo:
+        fit.status = "separated"
+        fit.theta = float(math.sqrt(stay_hi * top_lo))
+        fit.beta = 0.0
+        fit.message = f"complete separation between {stay_hi:.4g} and {top_lo:.4g}: β → 0, θ bracketed"
+        return fit
+    lx = np.log(levels)
+    # start: moment estimate
+    p = (z + 0.5) / (n + 1.0)
+    q = stats.norm.ppf(p)
+    try:
+        slope, icpt = np.polyfit(lx, q, 1, w=np.sqrt(n))
+        b0 = 1.0 / slope if slope > 0 else 0.5
+        m0 = -icpt * b0
+    except Exception:  # pragma: no cover
+        b0, m0 = 0.5, float(np.average(lx, weights=n))
+    if not (np.isfinite(b0) and b0 > 0):
+        b0 = 0.5
+    start = np.array([m0 if np.isfinite(m0) else lx.mean(), math.log(min(max(b0, 0.02), 5.0))])
+    res = optimize.minimize(_nll, start, args=(lx, n, z), method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000})
+    res2 = optimize.minimize(_nll, res.x, args=(lx, n, z), method="BFGS")
+    best = res2 if res2.success and res2.fun <= res.fun + 1e-12 else res
+    fit.theta = float(math.exp(best.x[0]))
+    fit.beta = float(math.exp(best.x[1]))
+    fit.loglik = -float(best.fun)
+    fit.converged = bool(res.success or res2.success) and 1e-4 < fit.beta < 50
+    if not fit.converged:
+        fit.status, fit.message = "failed", f"optimiser did not converge ({best.message})"
+    return fit
+
+
+@dataclass
+class SurfaceFit:
+    """Probit GLM P = Φ(b0 + b1 ln PGA + b2 ln(PGV/PGA)); status as :class:`FragilityFit`."""
+
+    coef: list[float]
+    n_runs: int
+    n_toppled: int
+    converged: bool
+    status: str = "ok"
+    message: str = ""
+    loglik: float = math.nan
+
+    def probability(self, pga: Any, pgv_pga: Any) -> Any:
+        b0, b1, b2 = self.coef
+        return stats.norm.cdf(b0 + b1 * np.log(pga) + b2 * np.log(pgv_pga))
+
+    def median_pga(self, pgv_pga: Any) -> Any:
+        b0, b1, b2 = self.coef
+        return np.exp(-(b0 + b2 * np.log(np.asarray(pgv_pga, float))) / b1)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def fit_surface(pga: Any, pgv_pga: Any, toppled: Any) -> SurfaceFit:
+    a, r = np.asarray(pga, float), np.asarray(pgv_pga, float)
+    t = np.asarray(toppled, bool)
+    keep = np.isfinite(a) & np.isfinite(r) & (a > 0) & (r > 0)
+    a, r, t = a[keep], r[keep], t[keep]
+    X = np.column_stack([np.ones_like(a), np.log(a), np.log(r)])
+    out = SurfaceFit([math.nan] * 3, int(t.size), int(t.sum()), False)
+    if t.size < 3 or t.all() or not t.any():
+        out.status = "all_toppled" if t.size and t.all() else ("none_toppled" if t.size >= 3 else "too_few")
+        out.message = "no fit: the outcomes do not vary"
+        return out
+
+    def nll(b: np.ndarray) -> float:
+        s = X @ b
+        return float(-(np.where(t, stats.norm.logcdf(s), stats.norm.logcdf(-s))).sum()) + 1e-8 * float(b @ b)
+
+    def grad(b: np.ndarray) -> np.ndarray:
+        s = X @ b
+        lp = stats.norm.logpdf(s)
+        g1 = np.exp(lp - stats.norm.logcdf(s))
+        g0 = np.exp(lp - stats.norm.logcdf(-s))
+        w = np.where(t, -g1, g0)
+        return X.T @ w + 2e-8 * b
+
+    res = optimize.minimize(nll, np.zeros(3), jac=grad, method="BFGS", options={"gtol": 1e-8, "maxiter": 2000})
+    out.coef = [float(v) for v in res.x]
+    out.loglik = -float(res.fun)
+    big = np.abs(res.x).max() > 1e3
+    gnorm = float(np.linalg.norm(grad(res.x)))
+    out.converged = bool(res.success or gnorm < 1e-5 * max(t.size, 1)) and not big and res.x[1] > 0
+    if big:
+        out.status, out.message = "separated", "coefficients diverge: the data are (quasi-)separated"
+    elif not out.converged:
+        out.status, out.message = "failed", str(res.message)
+    return out
+
+
+def fit_catalog(df: Any, ims: tuple[str, ...] = ("pga", "pgv"), min_runs: int = 2) -> Any:
+    """One row per (engine, rock, IM): θ, β, counts, status; plus a ``surface`` row set.
+
+    ``df`` is :func:`pbr_xval.catalog.store.load_results` output; only ``status == 'ok'`` runs count.
+    """
+    import json
+
+    import pandas as pd
+
+    rows = []
+    ok = df[df["status"] == "ok"]
+    keys = ["engine", "profile", "settings", "rock_id"]
+    for key, g in ok.groupby(keys, sort=True):
+        for im in ims:
+            f = fit_lognormal(g[im].to_numpy(), g["toppled"].to_numpy(), im, min_runs=min_runs)
+            rows.append({**dict(zip(keys, key, strict=True)), "im": im, "theta": f.theta, "beta": f.beta,
+                         "n_runs": f.n_runs, "n_toppled": f.n_toppled, "converged": f.converged,
+                         "status": f.status, "message": f.message,
+                         "levels": json.dumps(f.levels), "n_per_level": json.dumps(f.n_per_level),
+                         "z_per_level": json.dumps(f.z_per_level)})  # fmt: skip
+        s = fit_surface(g["pga"].to_numpy(), g["pgv_pga"].to_numpy(), g["toppled"].to_numpy())
+        rows.append({**dict(zip(keys, key, strict=True)), "im": "surface", "theta": math.nan, "beta": math.nan,
+                     "n_runs": s.n_runs, "n_toppled": s.n_toppled, "converged": s.converged, "status": s.status,
+                     "message": s.message or f"b = {s.coef}", "levels": json.dumps(s.coef), "n_per_level": "", "z_per_level": ""})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def compare_medians(fits: Any, reference: str, im: str = "pga") -> Any:
+    """Per rock and engine: θ, the reference engine's θ and the relative difference θ/θ_ref − 1."""
+    import pandas as pd
+
+    f = fits[(fits["im"] == im) & (fits["status"] == "ok")]
+    ref = f[f["engine"] == reference].groupby("rock_id")["theta"].first()
+    rows = []
+    for _, r in f.iterrows():
+        if r["engine"] == reference:
+            continue
+        th_ref = ref.get(r["rock_id"], math.nan)
+        rows.append({"rock_id": r["rock_id"], "engine": r["engine"], "profile": r["profile"], "settings": r["settings"],
+                     "im": im, "theta": r["theta"], "theta_ref": th_ref, "reference": reference,
+                     "rel_diff": r["theta"] / th_ref - 1.0 if th_ref == th_ref else math.nan})  # fmt: skip
+    return pd.DataFrame(rows)

@@ -1,0 +1,327 @@
+"""Run a chunk list: local process pool, Dask, or a shard of it; resume; crash containment.
+
+* ``local`` — ``concurrent.futures.ProcessPoolExecutor`` (spawn context). A worker that dies
+  (segfault, abort) breaks the pool: the pool is recreated and every chunk that was in flight
+  is re-run alone in a fresh one-process pool, so the culprit is identified exactly; a chunk
+  that crashes again is recorded as failed (with the reason) and the sweep goes on.
+* ``dask`` — a ``distributed.LocalCluster`` (processes, one thread per worker) or an existing
+  scheduler (``scheduler="tcp://..."``). ``distributed.scheduler.allowed-failures`` is 1 for the
+  local cluster: a task whose worker dies is retried once, then ``KilledWorker`` marks it failed.
+* ``shard="i/N"`` — only every N-th chunk of the deterministic list (1-based i), for job arrays.
+
+Each chunk is written by the worker that ran it (see :mod:`pbr_xval.catalog.store`); chunks
+whose file already exists with a matching hash are skipped (resume).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import contextlib
+import json
+import multiprocessing as mp
+import os
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from pbr_xval.catalog import store
+from pbr_xval.catalog.tasks import ChunkSpec, build_chunks, execute_chunk, shard_chunks
+
+__all__ = ["SweepSummary", "run_chunks", "run_sweep"]
+
+
+@dataclass
+class SweepSummary:
+    total: int = 0
+    done: int = 0
+    skipped: int = 0
+    failed: int = 0
+    simulations: int = 0
+    wall_s: float = 0.0
+    compute_s: float = 0.0
+    write_s: float = 0.0
+    sim_s: float = 0.0
+    peak_rss_mb: dict[int, float] = field(default_factory=dict)
+    failures: list[dict[str, str]] = field(default_factory=list)
+    dashboard: str | None = None
+
+    @property
+    def sims_per_s(self) -> float:
+        return self.simulations / self.wall_s if self.wall_s > 0 else 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "chunks_total": self.total, "chunks_done": self.done, "chunks_skipped": self.skipped,
+            "chunks_failed": self.failed, "simulations": self.simulations, "wall_s": self.wall_s,
+            "core_s": self.compute_s, "write_s": self.write_s, "sim_s": self.sim_s,
+            "sims_per_s": self.sims_per_s, "peak_rss_mb_per_worker": max(self.peak_rss_mb.values(), default=0.0),
+            "failures": self.failures, "dashboard": self.dashboard,
+        }  # fmt: skip
+
+    def add(self, res: dict[str, Any]) -> None:
+        if res.get("skipped"):
+            self.skipped += 1
+        else:
+            self.done += 1
+            self.simulations += int(res["n"])
+            self.compute_s += float(res["compute_s"])
+            self.write_s += float(res["write_s"])
+            self.sim_s += float(res.get("sim_s", 0.0))
+        pid = int(res.get("pid", 0))
+        self.peak_rss_mb[pid] = max(self.peak_rss_mb.get(pid, 0.0), float(res.get("rss_mb", 0.0)))
+
+
+@contextlib.contextmanager
+def _thread_env() -> Iterator[None]:
+    """OMP_NUM_THREADS=1 (and friends) for worker processes started inside the block."""
+    keys = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+    old = {k: os.environ.get(k) for k in keys}
+    for k in keys:
+        os.environ[k] = "1"
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _init_worker() -> None:
+    for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[k] = "1"
+
+
+def _crash_reason(exc: BaseException) -> str:
+    return f"worker process died while running the chunk ({type(exc).__name__}: {exc})"
+
+
+# ------------------------------------------------------------------ local
+def _run_isolated(spec_json: str, out: str) -> tuple[dict[str, Any] | None, str | None]:
+    ctx = mp.get_context("spawn")
+    with cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_worker) as pool:
+        fut = pool.submit(execute_chunk, spec_json, out)
+        try:
+            return fut.result(), None
+        except cf.process.BrokenProcessPool as exc:
+            return None, _crash_reason(exc)
+        except Exception as exc:
+            return None, f"{type(exc).__name__}: {exc}"
+
+
+def _local(
+    todo: list[ChunkSpec], out: str, workers: int, summary: SweepSummary, tick: Callable[[], None]
+) -> None:
+    ctx = mp.get_context("spawn")
+    queue = list(todo)
+    window = 2 * workers
+    suspects: list[ChunkSpec] = []
+
+    def new_pool() -> cf.ProcessPoolExecutor:
+        return cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+
+    pool = new_pool()
+    running: dict[cf.Future[dict[str, Any]], ChunkSpec] = {}
+    try:
+        while queue or running:
+            while queue and len(running) < window:
+                spec = queue.pop(0)
+                running[pool.submit(execute_chunk, spec.to_json(), out)] = spec
+            done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
+            broken = False
+            for fut in done:
+                spec = running.pop(fut)
+                try:
+                    summary.add(fut.result())
+                    tick()
+                except cf.process.BrokenProcessPool:
+                    broken = True
+                    suspects.append(spec)
+                except Exception as exc:  # an exception escaping execute_chunk (e.g. disk full)
+                    summary.failed += 1
+                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"{type(exc).__name__}: {exc}"})
+                    tick()
+            if broken:
+                # every chunk still in the pool is lost with it: collect and re-run alone
+                for fut, spec in list(running.items()):
+                    try:
+                        summary.add(fut.result(timeout=30))
+                        tick()
+                    except Exception:
+                        suspects.append(spec)
+                running.clear()
+                pool.shutdown(wait=False, cancel_futures=True)
+                with cf.ThreadPoolExecutor(max_workers=workers) as tp:
+                    results = list(tp.map(lambda s: (s, _run_isolated(s.to_json(), out)), suspects))
+                suspects = []
+                for spec, (res, reason) in results:
+                    if res is not None:
+                        summary.add(res)
+                    else:
+                        summary.failed += 1
+                        summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"failed twice; {reason}"})
+                    tick()
+                pool = new_pool()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+# ------------------------------------------------------------------ dask
+def _dask(
+    todo: list[ChunkSpec], out: str, workers: int, scheduler: str | None, summary: SweepSummary,
+    tick: Callable[[], None], say: Callable[[str], None],
+) -> None:  # fmt: skip
+    try:
+        import dask
+        from distributed import Client, KilledWorker, LocalCluster, as_completed
+    except ImportError as exc:  # pragma: no cover
+        raise RuntimeError("the dask executor needs: pip install 'pbr-xval[dask]'") from exc
+
+    cluster = None
+    with dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.worker.daemon": False}):
+        if scheduler:
+            client = Client(scheduler)
+        else:
+            env = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+            if os.environ.get("PYTHONPATH"):
+                env["PYTHONPATH"] = os.environ["PYTHONPATH"]
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0", env=env
+            )
+            client = Client(cluster)
+        try:
+            summary.dashboard = client.dashboard_link
+            say(f"Dask dashboard: {client.dashboard_link}")
+            futs = {}
+            for spec in todo:
+                f = client.submit(execute_chunk, spec.to_json(), out, key=f"chunk-{spec.content_hash()}", pure=False)
+                futs[f] = spec
+            for f in as_completed(list(futs)):
+                spec = futs[f]
+                try:
+                    summary.add(f.result())
+                except KilledWorker as exc:
+                    summary.failed += 1
+                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"worker died twice running the chunk (KilledWorker: {exc})"})
+                except Exception as exc:
+                    summary.failed += 1
+                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"{type(exc).__name__}: {exc}"})
+                tick()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+# ------------------------------------------------------------------ driver
+def run_chunks(
+    chunks: list[ChunkSpec],
+    out: str | Path,
+    *,
+    executor: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+    console: Any = None,
+    description: str = "chunks",
+) -> SweepSummary:
+    """Run ``chunks`` into the store at ``out`` (skipping finished ones); returns a summary."""
+    out = str(Path(out))
+    Path(out).mkdir(parents=True, exist_ok=True)
+    workers = int(workers or max(1, (os.cpu_count() or 1)))
+    summary = SweepSummary(total=len(chunks))
+    t0 = time.perf_counter()
+    todo = []
+    for c in chunks:  # resume: skip without starting a worker
+        if store.chunk_done(out, c):
+            summary.skipped += 1
+        else:
+            todo.append(c)
+
+    if console is None and progress:
+        from rich.console import Console
+
+        console = Console(stderr=True)
+    say = (lambda s: console.print(s)) if console is not None else (lambda s: None)
+    bar_ctx: Any = contextlib.nullcontext()
+    task = None
+    if progress and console is not None:
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        bar_ctx = Progress(
+            TextColumn(f"[bold]{description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+            TextColumn("ETA"), TimeRemainingColumn(), console=console, transient=False,
+        )  # fmt: skip
+    with bar_ctx as bar, _thread_env():
+        if bar is not None:
+            task = bar.add_task(description, total=len(chunks), completed=summary.skipped)
+
+        def tick() -> None:
+            if bar is not None:
+                bar.advance(task)
+
+        if todo:
+            if executor == "local":
+                _local(todo, out, workers, summary, tick)
+            elif executor == "dask":
+                _dask(todo, out, workers, scheduler, summary, tick, say)
+            elif executor == "inline":  # in this process (debugging, profiling)
+                for c in todo:
+                    summary.add(execute_chunk(c.to_json(), out))
+                    tick()
+            else:
+                raise ValueError(f"unknown executor {executor!r}; expected 'local', 'dask' or 'inline'")
+    summary.wall_s = time.perf_counter() - t0
+    if summary.failures:
+        store.write_text_atomic(Path(out) / "_failed" / f"failed-{os.getpid()}-{int(time.time())}.json", json.dumps(summary.failures, indent=2))
+    return summary
+
+
+def run_sweep(
+    catalog: Any,
+    out: str | Path,
+    *,
+    engines: list[str] | None = None,
+    profile: str | None = None,
+    executor: str = "local",
+    workers: int | None = None,
+    scheduler: str | None = None,
+    shard: str | None = None,
+    chunk_size: int | None = None,
+    progress: bool = True,
+    console: Any = None,
+) -> SweepSummary:
+    """Build the catalog's chunks, take the shard, run them into ``out``."""
+    from pbr_xval.catalog.spec import Catalog, load_catalog
+
+    if not isinstance(catalog, Catalog):
+        catalog = load_catalog(catalog)
+    chunks = shard_chunks(build_chunks(catalog, engines=engines, profile=profile, chunk_size=chunk_size), shard)
+    return run_chunks(
+        chunks, out, executor=executor, workers=workers, scheduler=scheduler, progress=progress, console=console,
+        description=f"{catalog.name}" + (f" shard {shard}" if shard else ""),
+    )  # fmt: skip
+
+
+def format_summary(s: SweepSummary) -> str:
+    d = s.to_dict()
+    lines = [
+        f"chunks: {d['chunks_done']} done, {d['chunks_skipped']} skipped, {d['chunks_failed']} failed (of {d['chunks_total']})",
+        f"simulations: {d['simulations']} in {d['wall_s']:.1f} s wall = {d['sims_per_s']:.2f} sims/s",
+        f"core-seconds used: {d['core_s']:.1f} (store writes {d['write_s']:.2f} s)",
+    ]
+    if s.dashboard:
+        lines.append(f"dashboard: {s.dashboard}")
+    for f in s.failures:
+        lines.append(f"FAILED chunk {f['chunk'][:12]} rock={f['rock']} engine={f['engine']}: {f['reason']}")
+    return "\n".join(lines)
