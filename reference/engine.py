@@ -1,0 +1,294 @@
+"""The ``reference`` engine: the seed paper's LCP rigid-body solver (Section 3).
+
+A direct implementation of Veeraraghavan & Krishnan's algorithm: state (u_cm, u̇_cm, R, l),
+eqs. 3.1–3.4 integrated with the constant-average-acceleration method and direct iteration,
+Cayley projection of R, basal contact nodes within ±ε, step-back on deeper penetration,
+collision impulses from the LCP of eq. 3.5 and resting forces with Coulomb friction
+(eqs. 3.6–3.7, dynamic friction μ_d when sliding). The stepping lives in
+:mod:`pbr_xval.reference.dynamics`, the LCP solvers in :mod:`pbr_xval.reference.lcp`.
+
+Usage::
+
+    from pbr_xval.engine import get_engine
+    traj = get_engine("reference").simulate(scene)             # faithful profile
+    traj = get_engine("reference").simulate(scene, {"timestep": 1e-4})
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
+
+__all__ = ["ReferenceEngine", "basal_nodes"]
+
+
+def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
+    """Contact nodes (N, 3) of the rock, scene frame at rest (m).
+
+    ``nodes = "scene"``: the nodes the scene compiler chose from the scenario's
+    ``[model] basal_nodes`` (default: the convex-hull vertices below the COM), recorded in the
+    scene's reductions.
+    ``nodes = "hull"``: the convex-hull vertices of the rock (a rigid rock on a flat pedestal
+    can only touch it with hull vertices), the ``max_nodes`` lowest ones kept.
+    ``nodes = "grid"``: the flat base (the hull vertices within 1e-9·size of the lowest point)
+    sampled by an n × n grid over its bounding rectangle (n = ⌊√max_nodes⌋, corners included),
+    plus the remaining hull vertices — used to measure the cost against the node count.
+    ``nodes = "vertices"``: every mesh vertex (the ``max_nodes`` lowest).
+    """
+    from pbr_xval.geometry.stability import hull_vertices
+
+    mesh = scene.rock.mesh
+    kind = settings["nodes"]
+    nmax = int(settings["max_nodes"])
+    if kind == "scene":
+        return np.asarray(scene.basal_nodes, dtype=float)
+    if kind == "vertices":
+        pts = np.unique(np.asarray(mesh.vertices, dtype=float), axis=0)
+    else:
+        pts = np.asarray(hull_vertices(np.asarray(mesh.vertices, dtype=float)), dtype=float)
+    if kind == "grid":
+        size = float(np.ptp(pts))
+        zmin = float(pts[:, 2].min())
+        base = pts[pts[:, 2] <= zmin + 1e-9 * size]
+        rest = pts[pts[:, 2] > zmin + 1e-9 * size]
+        n = max(2, math.isqrt(nmax))
+        xs = np.linspace(base[:, 0].min(), base[:, 0].max(), n)
+        ys = np.linspace(base[:, 1].min(), base[:, 1].max(), n)
+        gx, gy = np.meshgrid(xs, ys, indexing="ij")
+        grid = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, zmin)])
+        return np.vstack([grid, rest])
+    if kind not in ("hull", "vertices"):
+        raise EngineSettingsError(
+            f"engine 'reference': unknown nodes {kind!r}; expected scene, hull, grid or vertices"
+        )
+    order = np.lexsort((pts[:, 1], pts[:, 0], pts[:, 2]))
+    return pts[order][:nmax]
+
+
+class ReferenceEngine(EngineBase):
+    """Veeraraghavan & Krishnan's rigid-body LCP solver (see the module docstring)."""
+
+    name: ClassVar[str] = "reference"
+    capabilities: ClassVar[Capabilities] = Capabilities(
+        dims=3,
+        shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),
+        sliding=True,
+        restitution=True,
+        vertical=True,
+        deterministic=True,
+        analytical=False,
+    )
+    expected_failures: ClassVar[dict[str, str]] = {}
+
+    def profiles(self) -> dict[str, dict[str, Any]]:
+        return {
+            "faithful": {
+                "timestep": 1e-3,  # s, nominal Δt (steps also end on excitation breakpoints)
+                "epsilon": 1e-5,  # m, contact band ±ε; deeper penetration → step back
+                "max_stepbacks": 12,  # halvings of Δt per step
+                "min_timestep": 1e-7,  # s, accept the step (and count it) below this
+                "iterations": 20,  # direct-iteration cap per step
+                "iteration_tol": 1e-7,  # relative change of (u̇, l) and of R between iterations
+                "orthogonality_tol": 1e-10,  # |det R − 1|, |RᵀR − I| above this → Cayley projection
+                "lcp_method": "dantzig",  # eq. 3.5 / normal-only LCPs: "dantzig" | "lemke"
+                "impact_selection": "closest_to_previous",  # | "min_norm"
+                "impact_velocity": 1e-3,  # m/s, approaching faster than this → eq. 3.5 impulses
+                "separation_velocity": 1e-6,  # m/s, receding faster → not a resting contact
+                "slip_velocity": 1e-4,  # m/s, tangential speed above this → dynamic friction μ_d
+                "nodes": "scene",  # "scene" (the compiler's [model] basal_nodes) | "hull" | "grid" | "vertices"
+                "max_nodes": 256,
+                "ground_motion": "inertial",  # | "moving_pedestal"
+                # after the excitation has ended, a rock whose speed (|u̇| + |ω|·size) and
+                # velocity change per step are both below this (m/s) is at rest for good:
+                # the state is held (exact for a rigid rock) to the end; 0 disables
+                "rest_velocity": 1e-7,
+            }
+        }
+
+    def versions(self) -> dict[str, str]:
+        from pbr_xval import __version__
+
+        return {"pbr_xval": __version__, "numpy": np.__version__}
+
+    # ------------------------------------------------------------------ simulate
+    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+        from pbr_xval.engines._common import Recorder, initial_pose
+        from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
+
+        s = self.resolve_settings(settings)
+        if s["lcp_method"] not in ("dantzig", "lemke"):
+            raise EngineSettingsError(f"engine 'reference': lcp_method {s['lcp_method']!r}; expected dantzig or lemke")
+        if s["impact_selection"] not in ("closest_to_previous", "min_norm"):
+            raise EngineSettingsError(
+                f"engine 'reference': impact_selection {s['impact_selection']!r}; expected closest_to_previous or min_norm"
+            )
+        mode = s["ground_motion"]
+        if mode not in ("inertial", "moving_pedestal"):
+            raise EngineSettingsError(f"engine 'reference': ground_motion {mode!r}; expected inertial or moving_pedestal")
+        if scene.rock.shape not in self.capabilities.shapes:
+            raise NotApplicable(f"reference: rock shape {scene.rock.shape!r} is not supported")
+        ped = scene.pedestal
+        if ped["kind"] == "plane":
+            pedestal = Pedestal("plane")
+        elif ped["kind"] == "box":
+            pedestal = Pedestal("box", np.asarray(ped["half_extents"], dtype=float))
+        else:
+            raise NotApplicable("reference: mesh pedestals need node-vs-triangle contact, which is not implemented")
+
+        exc = scene.excitation
+        g = float(scene.gravity)
+        gvec = np.array([0.0, 0.0, -g])
+        if mode == "inertial":
+            def load(t: float) -> np.ndarray:
+                return gvec - np.asarray(exc.acceleration(t), dtype=float)
+        else:
+            def load(t: float) -> np.ndarray:
+                return gvec
+
+            def kin(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                return (
+                    np.asarray(exc.displacement(t), dtype=float),
+                    np.asarray(exc.velocity(t), dtype=float),
+                    np.asarray(exc.acceleration(t), dtype=float),
+                )
+
+            pedestal.kinematics = kin
+
+        com_rest = np.asarray(scene.rock.com, dtype=float)
+        nodes = basal_nodes(scene, s) - com_rest
+        body = Body(float(scene.rock.mass), np.asarray(scene.rock.inertia, dtype=float), nodes)
+        stepper = Stepper(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s)
+        com0, rot0, vel0, om0 = initial_pose(scene)
+        iw0 = rot0 @ body.inertia @ rot0.T
+        state = State(com0.copy(), vel0.copy(), rot0.copy(), iw0 @ om0)
+
+        dt_nom = float(s["timestep"])
+        rec = Recorder(scene, dt_nom)
+        rec.start(com_rest, np.eye(3))
+        duration = float(scene.duration)
+        bps = sorted({float(b) for b in exc.breakpoints if 0.0 < float(b) < duration} | {duration})
+        t_exc_end = float(exc.duration)
+        size = float(np.ptp(scene.rock.mesh.vertices))
+        rest_v = float(s["rest_velocity"])
+        held_from = None
+        next_out = 0.0
+        guard = self._near_topple_guard(scene)
+        wall0 = time.perf_counter()
+        t = 0.0
+        message = ""
+        try:
+            stop = rec.record(0.0, self._rel_com(state, pedestal, 0.0), state.R, stepper.omega(state),
+                              penetration=stepper.penetration(state, 0.0), force=True)
+            next_out = float(scene.output_dt)
+            bp_i = 0
+            max_back = int(s["max_stepbacks"])
+            min_dt = float(s["min_timestep"])
+            while not stop and t < duration - 1e-12 * dt_nom:
+                while bp_i < len(bps) and bps[bp_i] <= t + 1e-12 * dt_nom:
+                    bp_i += 1
+                t_next_bp = bps[bp_i] if bp_i < len(bps) else duration
+                h = min(dt_nom, t_next_bp - t)
+                state, info = stepper.resolve_impacts(state, t, h)
+                if info is not None:
+                    stepper.stats.impacts += 1
+                    if np.isfinite(info["ratio"]):
+                        stepper.stats.impact_ratios.append(info["ratio"])
+                    rec.events.append(Event("impact", t, info))
+                backs = 0
+                while True:
+                    try:
+                        new, _ = stepper.step(state, t, h)
+                        break
+                    except StepRejected:
+                        if backs >= max_back or h * 0.5 < min_dt:
+                            stepper.stats.min_timestep_hits += 1
+                            stepper.eps, eps_saved = math.inf, stepper.eps
+                            try:
+                                new, _ = stepper.step(state, t, h)
+                            finally:
+                                stepper.eps = eps_saved
+                            break
+                        backs += 1
+                        stepper.stats.stepbacks += 1
+                        h *= 0.5
+                state = new
+                t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
+                stepper.stats.steps += 1
+                gaps = stepper.last_gaps
+                pen = max(0.0, -float(gaps.min()))
+                stepper.stats.max_penetration = max(stepper.stats.max_penetration, pen)
+                com_rel = self._rel_com(state, pedestal, t)
+                last = t >= duration - 1e-12 * dt_nom
+                # the Recorder (toppling criterion, NaN/explosion, sampling) is consulted at
+                # every output time and at every step once the rock is near toppling
+                if last or t >= next_out - 1e-9 * dt_nom or guard(com_rel, state.R) or not np.isfinite(state.x).all():
+                    while next_out <= t + 1e-9 * dt_nom:
+                        next_out += float(scene.output_dt)
+                    stop = rec.record(t, com_rel, state.R, stepper.omega(state),
+                                      n_contacts=int(np.sum(gaps <= stepper.eps)), penetration=pen, force=last)
+                if not stop and rest_v > 0 and t >= t_exc_end and self._at_rest(stepper, state, size, dt_nom, rest_v):
+                    held_from = t
+                    tt = t
+                    while not stop and tt < duration - 1e-12 * dt_nom:
+                        tt = min(tt + float(scene.output_dt), duration)
+                        stop = rec.record(tt, self._rel_com(state, pedestal, tt), state.R, stepper.omega(state),
+                                          n_contacts=int(np.sum(gaps <= stepper.eps)), penetration=pen,
+                                          force=tt >= duration - 1e-12 * dt_nom)
+                    t = tt
+                    break
+        except Exception as exc_:  # never raise from inside the stepping
+            message = f"reference: stepping failed at t = {t:.6g} s: {type(exc_).__name__}: {exc_}"
+        wall = time.perf_counter() - wall0
+        diag = stepper.stats.summary()
+        diag.update(
+            n_nodes=int(nodes.shape[0]),
+            epsilon_m=float(s["epsilon"]),
+            simulated_s=float(t),
+            wall_s=wall,
+            wall_per_simulated_s=wall / t if t > 0 else float("nan"),
+            lcp_time_fraction=diag["lcp_time_s"] / wall if wall > 0 else float("nan"),
+            held_at_rest_from_s=held_from,
+        )
+        traj = rec.trajectory(self.name, s, self.versions(), diag)
+        traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
+        if message:
+            traj.events.append(Event("failed", t, {"reason": message}))
+            traj.status = "failed"
+            traj.message = message
+        return traj
+
+    @staticmethod
+    def _near_topple_guard(scene: Any) -> Any:
+        """f(com, R) -> True when the toppling criterion could be within reach (80 % of it)."""
+        crit = scene.toppling
+        com0 = np.asarray(scene.rock.com, dtype=float)
+        if crit.criterion == "com_displacement":
+            lim = 0.8 * float(crit.distance)
+            return lambda com, rot: bool(np.hypot(com[0] - com0[0], com[1] - com0[1]) >= lim)
+        if crit.criterion == "tilt_angle":
+            lim_tilt = 0.8 * math.radians(crit.angle_deg)
+        else:
+            lim_tilt = 0.8 * float(crit.factor) * float(np.min(scene.rock.stability.alpha))
+        cos_lim = math.cos(lim_tilt)
+        return lambda com, rot: bool(rot[2, 2] <= cos_lim)
+
+    @staticmethod
+    def _at_rest(stepper: Any, state: Any, size: float, dt: float, rest_v: float) -> bool:
+        w = stepper.omega(state)
+        speed = float(np.linalg.norm(state.v)) + float(np.linalg.norm(w)) * size
+        if speed >= rest_v:
+            return False
+        dv = float(np.linalg.norm(stepper.last_force)) / stepper.body.mass * dt
+        alpha = stepper.inv_inertia_world(state.R) @ stepper.last_torque
+        return dv + float(np.linalg.norm(alpha)) * size * dt < rest_v
+
+    @staticmethod
+    def _rel_com(state: Any, pedestal: Any, t: float) -> np.ndarray:
+        d, _, _ = pedestal.motion(t)
+        return state.x - d
