@@ -57,8 +57,30 @@ class RockModel:
 
     @cached_property
     def stability(self) -> StabilityTable:
-        """Critical tilt α(φ) and uplift levers on 72 directions."""
-        return StabilityTable(self.mesh.vertices, self.com)
+        """Critical tilt α(φ) and uplift levers on 72 directions (cached by geometry across scenes)."""
+        return _stability_table(self.mesh.vertices, self.com)
+
+
+_STABILITY_CACHE: dict[str, StabilityTable] = {}
+
+
+def _stability_table(vertices: np.ndarray, com: np.ndarray) -> StabilityTable:
+    """StabilityTable, memoised on the exact vertex and COM bytes.
+
+    Threshold searches and sweeps compile the same rock many times with different motions;
+    the table (72 root-finds on the hull) is the costliest part of compiling.
+    """
+    import hashlib
+
+    h = hashlib.sha256(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(com, dtype=np.float64).tobytes())
+    key = h.hexdigest()
+    table = _STABILITY_CACHE.get(key)
+    if table is None:
+        if len(_STABILITY_CACHE) > 256:
+            _STABILITY_CACHE.clear()
+        table = _STABILITY_CACHE[key] = StabilityTable(vertices, com)
+    return table
 
 
 @dataclass(frozen=True)
