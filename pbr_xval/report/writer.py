@@ -1,0 +1,619 @@
+"""Write a list of :class:`~pbr_xval.study.base.StudyResult` as a report folder, atomically.
+
+``write_report(results, Path("reports/housner"), provenance={...})`` produces::
+
+    reports/housner/
+        index.html          self-contained: plots inlined as PNG data URIs, tables as HTML,
+                            a provenance section (scenario hashes, engine versions/settings,
+                            machine, pbr-xval version, date, command line)
+        summary.md          headline numbers and summary lines (CI logs, pull requests)
+        provenance.json     the same provenance, machine-readable
+        <figure>.csv        the data of every figure, linked under the plot
+        <table>.csv         every table
+        data/<table>.parquet  every table, provenance in the Parquet schema metadata
+        <asset files>       generated inputs (e.g. a synthetic rock mesh and its scenario)
+
+Every file is written atomically (temporary file in the same folder, then ``os.replace``) into
+``<name>.tmp-<pid>/``; only when all are written does that folder replace the previous report
+(which is kept if anything fails).
+"""
+
+from __future__ import annotations
+
+import base64
+import contextlib
+import datetime as _dt
+import html
+import io
+import json
+import math
+import os
+import re
+import shutil
+import sys
+import tempfile
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from pbr_xval.study.base import StudyResult
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["atomic_write_bytes", "atomic_write_text", "base_provenance", "write_report"]
+
+MAX_HTML_ROWS = 60
+
+
+# ------------------------------------------------------------------ atomic i/o
+def atomic_write_bytes(path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` via a temporary file in the same folder and ``os.replace``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path: Path, text: str) -> Path:
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def _atomic_parquet(path: Path, table: Any) -> Path:
+    import pyarrow.parquet as pq
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    try:
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+# ------------------------------------------------------------------ helpers
+def _slug(s: str) -> str:
+    s = re.sub(r"[^A-Za-z0-9_.-]+", "_", s.strip()).strip("_.")
+    return s or "x"
+
+
+def _jsonable(v: Any) -> Any:
+    from pbr_xval.engine import _jsonable as j
+
+    try:
+        import pandas as pd
+
+        if isinstance(v, pd.DataFrame):
+            return f"<table {v.shape[0]}×{v.shape[1]}>"
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(v, Path):
+        return str(v)
+    out = j(v)
+    if isinstance(out, dict):
+        return {str(k): _jsonable(x) for k, x in out.items()}
+    if isinstance(out, list):
+        return [_jsonable(x) for x in out]
+    return out
+
+
+def _dumps(v: Any) -> str:
+    return json.dumps(_jsonable(v), indent=2, sort_keys=True, default=str, ensure_ascii=False)
+
+
+def _fmt(v: Any) -> str:
+    """A number for humans: 6 significant digits; everything else as text."""
+    try:
+        import numpy as np
+
+        if isinstance(v, np.generic):
+            v = v.item()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(v, bool) or v is None:
+        return "" if v is None else str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "—"
+        if math.isinf(v):
+            return "∞" if v > 0 else "−∞"
+        if v == 0:
+            return "0"
+        if 1e-4 <= abs(v) < 1e7:
+            return f"{v:.6g}"
+        return f"{v:.4e}"
+    if isinstance(v, dict | list | tuple):
+        return json.dumps(_jsonable(v), default=str)
+    return str(v)
+
+
+_MD_BOLD = re.compile(r"\*\*(.+?)\*\*")
+_MD_CODE = re.compile(r"`([^`]+)`")
+_MD_EM = re.compile(r"(?<![\w*])\*(?!\s)([^*]+?)\*(?![\w*])")
+
+
+def md_inline(text: str) -> Any:
+    """Escape, then render the inline Markdown the summaries use: **bold**, *em*, `code`."""
+    from markupsafe import Markup
+
+    s = html.escape(str(text), quote=False)
+    codes: list[str] = []
+
+    def keep(m: re.Match[str]) -> str:
+        codes.append(m.group(1))
+        return f"\x00{len(codes) - 1}\x00"
+
+    s = _MD_CODE.sub(keep, s)
+    s = _MD_BOLD.sub(r"<strong>\1</strong>", s)
+    s = _MD_EM.sub(r"<em>\1</em>", s)
+    s = re.sub(r"\x00(\d+)\x00", lambda m: f"<code>{codes[int(m.group(1))]}</code>", s)
+    return Markup(s)
+
+
+def _summary_blocks(summary: Iterable[str]) -> tuple[list[Any], list[Any]]:
+    """Summary lines as HTML list items; Markdown tables among them as HTML tables."""
+    from markupsafe import Markup
+
+    items: list[Any] = []
+    tables: list[Any] = []
+    rows: list[list[str]] = []
+
+    def flush() -> None:
+        if not rows:
+            return
+        body = [r for r in rows if not all(re.fullmatch(r":?-{2,}:?", c.strip()) for c in r if c.strip())]
+        out = ['<table class="data">']
+        if body:
+            out.append("<thead><tr>" + "".join(f"<th>{md_inline(c)}</th>" for c in body[0]) + "</tr></thead>")
+        out.append("<tbody>")
+        for r in body[1:]:
+            out.append("<tr>" + "".join(f"<td>{md_inline(c)}</td>" for c in r) + "</tr>")
+        out.append("</tbody></table>")
+        tables.append(Markup("".join(out)))
+        rows.clear()
+
+    for s in summary:
+        for ln in str(s).split("\n"):
+            t = ln.strip()
+            if t.startswith("|"):
+                rows.append([c.strip() for c in t.strip("|").split("|")])
+                continue
+            flush()
+            if t:
+                items.append(md_inline(t))
+    flush()
+    return items, tables
+
+
+def _table_html(df: pd.DataFrame, max_rows: int = MAX_HTML_ROWS) -> tuple[Any, bool, int]:
+    import pandas as pd
+    from markupsafe import Markup
+
+    shown = df.head(max_rows)
+    numeric = {c: pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]) for c in df.columns}
+    out = ['<table class="data">', "<thead><tr>"]
+    for c in df.columns:
+        cls = "" if numeric[c] else ' class="text"'
+        out.append(f"<th{cls}>{html.escape(str(c))}</th>")
+    out.append("</tr></thead>")
+    out.append("<tbody>")
+    for row in shown.itertuples(index=False, name=None):
+        out.append("<tr>")
+        for c, v in zip(df.columns, row, strict=True):
+            cls = "" if numeric[c] else ' class="text"'
+            out.append(f"<td{cls}>{html.escape(_fmt(v))}</td>")
+        out.append("</tr>")
+    out.append("</tbody></table>")
+    return Markup("".join(out)), len(df) > max_rows, len(shown)
+
+
+def _png_data_uri(fig: Any, dpi: int = 100) -> tuple[str, int, int]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    data = buf.getvalue()
+    # PNG IHDR: width and height are big-endian uint32 at bytes 16..24
+    w = int.from_bytes(data[16:20], "big")
+    h = int.from_bytes(data[20:24], "big")
+    with contextlib.suppress(Exception):
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(data).decode("ascii"), w, h
+
+
+def _csv_bytes(df: pd.DataFrame) -> bytes:
+    return df.to_csv(index=False, lineterminator="\n").encode("utf-8")
+
+
+def _arrow_table(df: pd.DataFrame, meta: Mapping[str, Any]) -> Any:
+    import pyarrow as pa
+
+    try:
+        table = pa.Table.from_pandas(df, preserve_index=False)
+    except (pa.ArrowInvalid, pa.ArrowTypeError, TypeError, ValueError):
+        d2 = df.copy()
+        for c in d2.columns:
+            if d2[c].dtype == object:
+                d2[c] = d2[c].map(lambda x: x if x is None or isinstance(x, str) else json.dumps(_jsonable(x), default=str))
+        d2.columns = [str(c) for c in d2.columns]
+        table = pa.Table.from_pandas(d2, preserve_index=False)
+    md = dict(table.schema.metadata or {})
+    md[b"pbr_xval"] = json.dumps(_jsonable(meta), sort_keys=True, default=str).encode()
+    return table.replace_schema_metadata(md)
+
+
+def base_provenance(extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """pbr-xval version, date (UTC), command line and machine, updated by ``extra``."""
+    from pbr_xval import __version__
+    from pbr_xval.engine import machine_info
+
+    prov: dict[str, Any] = {
+        "pbr_xval_version": __version__,
+        "date": _dt.datetime.now(_dt.UTC).replace(microsecond=0).isoformat(),
+        "command_line": " ".join([Path(sys.argv[0]).name if sys.argv else "python", *sys.argv[1:]]),
+        "machine": dict(machine_info()),
+    }
+    prov.update(dict(extra or {}))
+    return prov
+
+
+def _status(r: StudyResult) -> str:
+    s = r.provenance.get("status") if isinstance(r.provenance, Mapping) else None
+    if s in ("failed", "interrupted"):
+        return str(s)
+    if isinstance(r.headline, Mapping) and r.headline.get("status") in ("failed", "interrupted"):
+        return str(r.headline["status"])
+    return "ok"
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    out: list[tuple[str, Any]] = []
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, Mapping):
+            out += _flatten(v, key + ".")
+        else:
+            out.append((key, v))
+    return out
+
+
+def _scenarios(results: Iterable[StudyResult], prov: Mapping[str, Any]) -> list[dict[str, str]]:
+    seen: dict[str, dict[str, str]] = {}
+
+    def add(name: Any, h: Any, file: Any = "") -> None:
+        if not h or not isinstance(h, str):
+            return
+        if h not in seen:
+            seen[h] = {"name": str(name or "?"), "hash": h, "file": str(file or "")}
+        elif file and not seen[h]["file"]:
+            seen[h]["file"] = str(file)
+
+    for s in prov.get("scenarios", []) or []:
+        if isinstance(s, Mapping):
+            add(s.get("name"), s.get("hash"), s.get("file", ""))
+    for r in results:
+        p = r.provenance if isinstance(r.provenance, Mapping) else {}
+        sc = p.get("scenario")
+        name = sc if isinstance(sc, str) else p.get("scenario_name")
+        add(name, p.get("scenario_hash"), p.get("scenario_file", ""))
+        add(p.get("scenario_name"), p.get("base_scenario_hash"), p.get("scenario_file", ""))
+        if isinstance(sc, Mapping):
+            add(sc.get("name"), sc.get("hash") or sc.get("scenario_hash"), sc.get("file", ""))
+        for key in ("scenario_hashes", "scenarios"):
+            v = p.get(key)
+            if isinstance(v, Mapping):
+                for n, h in v.items():
+                    add(n, h if isinstance(h, str) else (h.get("hash") if isinstance(h, Mapping) else None))
+    return list(seen.values())
+
+
+def _engines(results: Iterable[StudyResult]) -> dict[str, dict[str, Any]]:
+    """Engine name -> {versions, settings (by study)} gathered from the results' provenance."""
+    out: dict[str, dict[str, Any]] = {}
+
+    def slot(name: str) -> dict[str, Any]:
+        return out.setdefault(str(name), {"versions": {}, "settings": {}})
+
+    for r in results:
+        p = r.provenance if isinstance(r.provenance, Mapping) else {}
+        eng = p.get("engines")
+        if isinstance(eng, Mapping):
+            for n, info in eng.items():
+                if isinstance(info, Mapping):
+                    s = slot(n)
+                    if isinstance(info.get("versions"), Mapping):
+                        s["versions"].update(info["versions"])
+                    if "settings" in info:
+                        s["settings"][r.title] = info["settings"]
+                    for k, v in info.items():
+                        if k not in ("versions", "settings"):
+                            s.setdefault("other", {})[k] = v
+        for key in ("versions", "engine_versions"):
+            v = p.get(key)
+            if isinstance(v, Mapping):
+                for n, ver in v.items():
+                    if isinstance(ver, Mapping):
+                        slot(n)["versions"].update(ver)
+        for key in ("settings", "engine_settings"):
+            v = p.get(key)
+            if isinstance(v, Mapping):
+                for n, st in v.items():
+                    if isinstance(st, Mapping):
+                        slot(n)["settings"][r.title] = st
+    return out
+
+
+def _unique(name: str, used: set[str]) -> str:
+    base, i = name, 2
+    while name in used:
+        name = f"{base}_{i}"
+        i += 1
+    used.add(name)
+    return name
+
+
+# ------------------------------------------------------------------ writer
+def write_report(
+    results: list[StudyResult],
+    out_dir: Path,
+    *,
+    provenance: dict[str, Any],
+    title: str | None = None,
+    description: str = "",
+    assets: Mapping[str, Path] | None = None,
+    notes: Iterable[str] = (),
+) -> Path:
+    """Write the report folder ``out_dir`` (e.g. ``reports/<name>``) and return it.
+
+    Parameters
+    ----------
+    results : the studies' results (failed sections included; see ``spec.failed_result``).
+    out_dir : the report folder; replaced as a whole once every file is written.
+    provenance : run-level provenance (``command_line``, ``study_file``, ...); filled in with
+        the pbr-xval version, the date and the machine where missing.
+    title, description : page title (default: ``provenance['title']`` or the folder name).
+    assets : extra files copied into the folder (generated inputs), name -> source path.
+    notes : run-level notes (e.g. engines that were skipped).
+    """
+    from jinja2 import Environment
+
+    from pbr_xval.report.template import INDEX_HTML
+
+    out_dir = Path(out_dir)
+    prov = base_provenance()
+    prov.update(provenance or {})
+    title = title or prov.get("title") or out_dir.name
+    prov.setdefault("title", title)
+
+    parent = out_dir.parent
+    parent.mkdir(parents=True, exist_ok=True)
+    tmp = parent / f"{out_dir.name}.tmp-{os.getpid()}"
+    if tmp.exists():
+        shutil.rmtree(tmp)
+    tmp.mkdir()
+    try:
+        used: set[str] = {"index", "summary", "provenance"}
+        sections: list[dict[str, Any]] = []
+        parquet_files: list[str] = []
+        for i, r in enumerate(results, start=1):
+            prefix = f"s{i:02d}_{_slug(r.kind)}"
+            status = _status(r)
+            rprov = r.provenance if isinstance(r.provenance, Mapping) else {}
+            sec: dict[str, Any] = {
+                "anchor": prefix,
+                "title": r.title,
+                "kind": r.kind,
+                "status": status,
+                "scenario": rprov.get("scenario_label") or rprov.get("scenario_name") or "",
+                "wall": f"{r.wall_time:.1f} s" if r.wall_time >= 1 else f"{r.wall_time * 1000:.0f} ms",
+                "summary_html": [],
+                "summary_tables": [],
+                "headline": [(k, _fmt(v)) for k, v in _flatten(r.headline or {}) if k != "status"],
+                "notes": [md_inline(n) for n in r.notes],
+                "error": rprov.get("traceback") or rprov.get("error") or "",
+                "provenance_json": _dumps({k: v for k, v in rprov.items() if k != "traceback"}),
+                "figures": [],
+                "tables": [],
+            }
+            items, mtables = _summary_blocks(r.summary)
+            sec["summary_html"], sec["summary_tables"] = items, mtables
+            table_files: dict[str, dict[str, str]] = {}
+            for tname, df in (r.tables or {}).items():
+                stem = _unique(f"{prefix}_{_slug(tname)}", used)
+                csv = f"{stem}.csv"
+                atomic_write_bytes(tmp / csv, _csv_bytes(df))
+                pq_name = f"data/{stem}.parquet"
+                meta = {
+                    "report": prov,
+                    "study": {"kind": r.kind, "title": r.title, "table": tname, "headline": r.headline},
+                    "study_provenance": {k: v for k, v in rprov.items() if k != "traceback"},
+                }
+                try:
+                    _atomic_parquet(tmp / pq_name, _arrow_table(df, meta))
+                    parquet_files.append(pq_name)
+                except Exception as exc:  # a table pyarrow cannot store must not sink the report
+                    sec["notes"].append(md_inline(f"table {tname!r} could not be written as Parquet: {exc}"))
+                    pq_name = ""
+                table_files[tname] = {"csv": csv, "parquet": pq_name}
+                body, truncated, shown = _table_html(df)
+                sec["tables"].append(
+                    {
+                        "name": tname,
+                        "html": body,
+                        "truncated": truncated,
+                        "shown": shown,
+                        "rows": len(df),
+                        "csv": csv,
+                        "parquet": pq_name,
+                    }
+                )
+            for fig in r.figures or []:
+                same = _slug(fig.name) == _slug(fig.table) and fig.table in table_files
+                stem = f"{prefix}_{_slug(fig.name)}" if same else _unique(f"{prefix}_{_slug(fig.name)}", used)
+                try:
+                    uri, w, h = _png_data_uri(fig.figure)
+                except Exception as exc:
+                    sec["notes"].append(md_inline(f"figure {fig.name!r} could not be rendered: {exc}"))
+                    continue
+                df = (r.tables or {}).get(fig.table)
+                if same:
+                    csv = table_files[fig.table]["csv"]
+                elif df is not None:
+                    csv = f"{stem}.csv"
+                    atomic_write_bytes(tmp / csv, _csv_bytes(df))
+                else:
+                    # no data table: link the caption to nothing rather than to a missing file
+                    csv = ""
+                    sec["notes"].append(md_inline(f"figure {fig.name!r}: its data table {fig.table!r} is missing"))
+                sec["figures"].append(
+                    {
+                        "anchor": stem,
+                        "data_uri": uri,
+                        "width": w,
+                        "height": h,
+                        "alt": fig.caption or fig.name,
+                        "caption": md_inline(fig.caption),
+                        "csv": csv,
+                    }
+                )
+            sections.append(sec)
+
+        # generated inputs
+        asset_names: list[str] = []
+        for name, src in (assets or {}).items():
+            safe = _unique(_slug(name), used)
+            atomic_write_bytes(tmp / safe, Path(src).read_bytes())
+            asset_names.append(safe)
+
+        scen = _scenarios(results, prov)
+        engines = _engines(results)
+        prov["scenarios"] = scen
+        prov["engines"] = engines
+        prov_json = _dumps(prov)
+        atomic_write_text(tmp / "provenance.json", prov_json + "\n")
+
+        env = Environment(autoescape=True, trim_blocks=False, lstrip_blocks=False, keep_trailing_newline=True)
+        tpl = env.from_string(INDEX_HTML)
+        engine_rows = [
+            {
+                "name": n,
+                "versions_short": ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items())) or "versions not recorded",
+                "json": _dumps(info),
+            }
+            for n, info in sorted(engines.items())
+        ]
+        html_text = tpl.render(
+            title=title,
+            description=description or prov.get("description", ""),
+            prov=prov,
+            prov_json=prov_json,
+            sections=sections,
+            n_failed=sum(s["status"] != "ok" for s in sections),
+            global_notes=[md_inline(n) for n in notes],
+            scenarios=scen,
+            engines=engine_rows,
+            machine=sorted((prov.get("machine") or {}).items()),
+            assets=asset_names,
+            parquet_files=parquet_files,
+        )
+        atomic_write_text(tmp / "index.html", html_text)
+        atomic_write_text(tmp / "summary.md", summary_markdown(results, prov, title=title, notes=notes))
+
+        _swap_in(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def _swap_in(tmp: Path, final: Path) -> None:
+    """Replace ``final`` by ``tmp`` (two renames; the previous folder is restored on failure)."""
+    old = final.parent / f"{final.name}.old-{os.getpid()}"
+    if old.exists():
+        shutil.rmtree(old)
+    had = final.exists()
+    if had:
+        os.rename(final, old)
+    try:
+        os.rename(tmp, final)
+    except BaseException:
+        if had and not final.exists():
+            os.rename(old, final)
+        raise
+    if had:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def summary_markdown(
+    results: list[StudyResult], prov: Mapping[str, Any], *, title: str, notes: Iterable[str] = ()
+) -> str:
+    """The report as Markdown: status table, then each study's summary lines and headline numbers."""
+    m = prov.get("machine") or {}
+    lines = [
+        f"# {title}",
+        "",
+        f"pbr-xval {prov.get('pbr_xval_version', '?')} · {prov.get('date', '')} · "
+        f"{m.get('platform', '')} ({m.get('cpu_count', '?')} CPUs) · Python {m.get('python', '')}",
+        "",
+    ]
+    if prov.get("command_line"):
+        lines += [f"Command: `{prov['command_line']}`", ""]
+    n_bad = sum(_status(r) != "ok" for r in results)
+    lines += [
+        f"**{len(results) - n_bad} of {len(results)} sections OK**" + (f", **{n_bad} failed or not run**" if n_bad else ""),
+        "",
+        "| section | study | status | wall time |",
+        "|---|---|---|---|",
+    ]
+    for r in results:
+        st = _status(r)
+        mark = "ok" if st == "ok" else f"**{st.upper()}**"
+        lines.append(f"| {r.title} | {r.kind} | {mark} | {r.wall_time:.1f} s |")
+    lines.append("")
+    for n in notes:
+        lines.append(f"- {n}")
+    if notes:
+        lines.append("")
+    for r in results:
+        lines += [f"## {r.title}", ""]
+        prev_table = False
+        for s in r.summary:
+            for ln in str(s).split("\n"):
+                is_table = ln.lstrip().startswith("|")
+                if is_table and not prev_table and lines and lines[-1] != "":
+                    lines.append("")
+                if not ln.strip():
+                    if not prev_table:
+                        continue
+                    lines.append("")
+                elif is_table or ln.lstrip().startswith("#"):
+                    lines.append(ln)
+                else:
+                    if prev_table:
+                        lines.append("")
+                    lines.append(f"- {ln}")
+                prev_table = is_table
+        hl = [(k, v) for k, v in _flatten(r.headline or {}) if k != "status"]
+        if hl:
+            lines += ["", "| headline | value |", "|---|---|"]
+            lines += [f"| {k} | {_fmt(v)} |" for k, v in hl]
+        if r.notes:
+            lines += ["", "Notes:"]
+            lines += [f"- {n}" for n in r.notes]
+        lines.append("")
+    return "\n".join(lines)
