@@ -34,14 +34,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import (
-    KNOWN_ENGINES,
     Capabilities,
     EngineBase,
-    EngineNotAvailable,
     EngineSettingsError,
     Event,
     NotApplicable,
     Trajectory,
+    import_engine_package,
 )
 from pbr_xval.engines._common import (
     COLLISION_CHOICES,
@@ -65,14 +64,7 @@ _LCP_FAILURE_NEEDLES = ("failed to find a solution",)
 
 
 def _import_dart() -> Any:
-    try:
-        import dartpy
-    except ImportError as exc:  # pragma: no cover - exercised only without dartpy
-        raise EngineNotAvailable(
-            f"engine 'dart' needs the package {KNOWN_ENGINES['dart']!r}, which could not be imported ({exc}). "
-            f"Install it with: pip install {KNOWN_ENGINES['dart']}"
-        ) from exc
-    return dartpy
+    return import_engine_package("dart", "dartpy")
 
 
 def _load_mesh_shapes(dart: Any, paths: list[Path]) -> list[Any]:
@@ -105,6 +97,7 @@ class DartEngine(EngineBase):
     """DART rigid-body adapter (Featherstone dynamics, boxed-LCP contacts); see the module docstring."""
 
     name: ClassVar[str] = "dart"
+    requires: ClassVar[str | None] = "dartpy"
     capabilities: ClassVar[Capabilities] = Capabilities(
         dims=3,
         shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),

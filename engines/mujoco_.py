@@ -28,13 +28,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import (
-    KNOWN_ENGINES,
     Capabilities,
     EngineBase,
-    EngineNotAvailable,
     EngineSettingsError,
     NotApplicable,
     Trajectory,
+    import_engine_package,
 )
 from pbr_xval.engines._common import (
     COLLISION_CHOICES,
@@ -54,15 +53,7 @@ _COLLISIONS = COLLISION_CHOICES
 
 
 def _import_mujoco() -> Any:
-    try:
-        import mujoco
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        pkg = KNOWN_ENGINES["mujoco"]
-        raise EngineNotAvailable(
-            f"engine 'mujoco' needs the package {pkg!r}, which could not be imported ({exc}). "
-            f"Install it with: pip install {pkg}"
-        ) from exc
-    return mujoco
+    return import_engine_package("mujoco", "mujoco")
 
 
 def _mat_to_quat(r: np.ndarray) -> list[float]:
@@ -93,11 +84,11 @@ def _fail(rec: Recorder, t: float, message: str) -> None:
         rec.events.append(Event("failed", t, {"reason": message}))
 
 
-# --------------------------------------------------------------------------- CoACD cache
 class MuJoCoEngine(EngineBase):
     """MuJoCo (``mujoco-core``) rigid-body adapter; see the module docstring."""
 
     name: ClassVar[str] = "mujoco"
+    requires: ClassVar[str | None] = "mujoco"
     capabilities: ClassVar[Capabilities] = Capabilities(
         dims=3,
         shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),

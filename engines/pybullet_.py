@@ -25,14 +25,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import (
-    KNOWN_ENGINES,
     Capabilities,
     EngineBase,
-    EngineNotAvailable,
     EngineSettingsError,
     Event,
     NotApplicable,
     Trajectory,
+    import_engine_package,
 )
 
 from ._common import (
@@ -55,15 +54,7 @@ _BULLET_MAX_FRICTION = 10.0
 
 
 def _import_pybullet() -> Any:
-    try:
-        import pybullet
-    except ImportError as exc:  # pragma: no cover - depends on the environment
-        pkg = KNOWN_ENGINES["pybullet"]
-        raise EngineNotAvailable(
-            f"engine 'pybullet' needs the package {pkg!r}, which could not be imported ({exc}). "
-            f"Install it with: pip install {pkg}"
-        ) from exc
-    return pybullet
+    return import_engine_package("pybullet", "pybullet")
 
 
 def _xyzw(r: np.ndarray) -> list[float]:
@@ -91,6 +82,7 @@ class PyBulletEngine(EngineBase):
     """PyBullet multibody simulation of the rock (see the module docstring)."""
 
     name: ClassVar[str] = "pybullet"
+    requires: ClassVar[str | None] = "pybullet"
     capabilities: ClassVar[Capabilities] = Capabilities(
         dims=3,
         shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),

@@ -18,6 +18,7 @@ import dataclasses
 import functools
 import importlib
 import importlib.metadata
+import importlib.util
 import json
 import math
 import os
@@ -433,6 +434,8 @@ class EngineBase:
 
     name: ClassVar[str] = ""
     capabilities: ClassVar[Capabilities] = Capabilities()
+    #: top-level module of the third-party package the engine needs (checked by get_engine)
+    requires: ClassVar[str | None] = None
     #: name of the profile ``default_settings`` returns
     default_profile: ClassVar[str] = "faithful"
 
@@ -541,4 +544,23 @@ def get_engine(name: str | type | Engine) -> Engine:
             f"engine {name!r} needs the package {pkg!r}, which could not be imported ({exc}). "
             f"Install it with: pip install {pkg}"
         ) from exc
+    req = getattr(cls, "requires", None)
+    if req and importlib.util.find_spec(req) is None:
+        pkg = KNOWN_ENGINES.get(name, req)
+        raise EngineNotAvailable(
+            f"engine {name!r} needs the package {pkg!r} (module {req!r}), which is not installed. "
+            f"Install it with: pip install {pkg}"
+        )
     return cls()
+
+
+def import_engine_package(engine: str, module: str) -> Any:
+    """Import a third-party engine package on first use, with an install hint if it is missing."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        pkg = KNOWN_ENGINES.get(engine, module)
+        raise EngineNotAvailable(
+            f"engine {engine!r} needs the package {pkg!r}, which could not be imported ({exc}). "
+            f"Install it with: pip install {pkg}"
+        ) from exc

@@ -101,3 +101,16 @@ def test_rocking_angle_sign_convention() -> None:
     t90 = run_scenario(scn, "housner")
     assert np.allclose(t90.rocking_angle(), theta, atol=1e-12)
     assert np.allclose(t90.com[:, 1], traj.com[:, 0], atol=1e-12)
+
+
+def test_missing_third_party_package_is_reported_by_get_engine(monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib.util
+
+    import pbr_xval.engine as eng
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(eng.importlib.util, "find_spec", lambda n, *a: None if n == "dartpy" else real(n, *a))
+    with pytest.raises(EngineNotAvailable, match="pip install dartpy"):
+        get_engine("dart")
+    info = eng.list_engines()["dart"]
+    assert not info["available"] and "pip install dartpy" in info["error"]
