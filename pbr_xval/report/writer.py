@@ -213,7 +213,14 @@ def _table_html(df: pd.DataFrame, max_rows: int = MAX_HTML_ROWS) -> tuple[Any, b
         out.append("<tr>")
         for c, v in zip(df.columns, row, strict=True):
             cls = "" if numeric[c] else ' class="text"'
-            out.append(f"<td{cls}>{html.escape(_fmt(v))}</td>")
+            text = _fmt(v)
+            if len(text) > 80:  # long JSON (settings, versions): folded, full text kept
+                out.append(
+                    f"<td{cls}><details><summary>{html.escape(text[:40])}…</summary>"
+                    f"<pre>{html.escape(text)}</pre></details></td>"
+                )
+            else:
+                out.append(f"<td{cls}>{html.escape(text)}</td>")
         out.append("</tr>")
     out.append("</tbody></table>")
     return Markup("".join(out)), len(df) > max_rows, len(shown)
