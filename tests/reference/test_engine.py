@@ -176,10 +176,11 @@ def test_low_friction_short_block_slides_rather_than_rocks():
 def test_curved_base_grid_agrees_with_analytical():
     rock = {"shape": "curved_base", "H": 14.73, "r": 3.62, "h": 3.38, "depth": 1.0, "density": 2700.0}
     cells = []
-    for pgv in (0.5, 1.0, 1.5, 2.0):
-        for period in (0.5, 1.0, 2.0, 3.0):
+    # PGV up to 8 m/s so that the grid crosses the toppling line (toppling at PGV ≥ 6 for T ≥ 2 s)
+    for pgv in (1.0, 2.0, 4.0, 6.0, 8.0):
+        for period in (1.0, 2.0, 3.0):
             scn = conf.housner_scenario(
-                name="reference_curved", duration=max(6.0, 2 * period), rock=rock,
+                name="reference_curved", duration=max(8.0, 3 * period), rock=rock,
                 excitation={"type": "sawtooth", "pgv": pgv, "period": period},
             )
             scene = compile_scene(scn)
@@ -194,3 +195,4 @@ def test_curved_base_grid_agrees_with_analytical():
                 assert abs(dx_ref - dx_ana) <= 0.05 * dx_ana + 1e-3, (pgv, period, dx_ref, dx_ana)
     agree = np.mean([a == b for a, b in cells])
     assert agree >= 0.95, cells
+    assert any(b for _, b in cells) and not all(b for _, b in cells)  # both sides of the toppling line
