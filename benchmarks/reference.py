@@ -1,7 +1,9 @@
 """Cost of the ``reference`` engine (prints figures, asserts nothing).
 
-1. Wall and CPU seconds per simulated second on the Housner block (a 5 s sub-threshold
-   half-sine run at a = 5.0 m/s²), for the reference engine and — in the same run, if it
+1. Wall and CPU seconds per simulated second on the Housner block (a 2 s sub-threshold
+   half-sine run at a = 5.0 m/s²; the 5 s run used before stalls from t ≈ 3.47 s, where the
+   resting solve's fast path fails on every call and ``lcp.solve_friction_cone`` runs its
+   5000 sweeps (~0.8 s per call) without converging — a solver issue, not the stepping), for the reference engine and — in the same run, if it
    imports — MuJoCo, and their ratio.
 2. Cost per step against the number of basal contact nodes (4, 16, 64, 256, 1024: the box
    base sampled by an n-node grid, ``nodes = "grid"``), the rock resting on all of them
@@ -47,7 +49,7 @@ def housner_speed(duration: float) -> None:
     ))
     print(f"== Housner block, half-sine a = 5.0 m/s², {duration:g} s simulated, dt = 1e-3 s")
     _timed(compile_scene(conf.housner_scenario(duration=0.05)), "reference")  # warm-up (imports, caches)
-    traj, wall, cpu = _timed(scene, "reference")
+    traj, wall, cpu = min((_timed(scene, "reference") for _ in range(2)), key=lambda r: r[2])  # best of 2
     d = traj.diagnostics
     t_sim = float(d["simulated_s"])
     held = d.get("held_at_rest_from_s")
@@ -66,13 +68,14 @@ def housner_speed(duration: float) -> None:
         print(f"mujoco: not available ({exc}); no ratio")
         return
     try:
-        tm, wm, cm = _timed(scene, "mujoco")
+        tm, wm, cm = min((_timed(scene, "mujoco") for _ in range(2)), key=lambda r: r[2])  # best of 2 (warm)
     except Exception as exc:  # the adapter is someone else's work in progress
         print(f"mujoco: failed ({type(exc).__name__}: {exc}); no ratio")
         return
     print(f"mujoco: status {tm.status}, toppled {tm.toppled}, wall {wm:.2f} s, CPU {cm:.2f} s -> "
-          f"{cm / duration:.4f} CPU-s per simulated s")
-    print(f"ratio reference / mujoco (CPU, with rest hold): {cpu / max(cm, 1e-9):.1f}; "
+          f"{wm / duration:.4f} wall-s and {cm / duration:.4f} CPU-s per simulated s")
+    print(f"ratio reference / mujoco (wall, with rest hold): {wall / max(wm, 1e-9):.1f}; "
+          f"(CPU, with rest hold): {cpu / max(cm, 1e-9):.1f}; "
           f"(CPU, every step integrated): {cpu2 / max(cm, 1e-9):.1f}")
 
 
@@ -92,7 +95,7 @@ def node_scaling(counts: list[int]) -> None:
         per = d["wall_s"] / nst
         lcp_per = d["lcp_time_s"] / nst
         rows.append((n, d["n_nodes"], per, lcp_per))
-        print(f"n = {n:5d} (nodes {d['n_nodes']:5d}, contacts max {d['contacts_max']}): {1e3 * per:9.2f} ms/step, "
+        print(f"n = {n:5d} (nodes {d['n_nodes']:5d}, contacts max {d.get('contacts_max', '?')}): {1e3 * per:9.2f} ms/step, "
               f"contact solve {1e3 * lcp_per:9.2f} ms, rest {1e3 * (per - lcp_per):7.2f} ms; "
               f"steps {nst}, solves {d['lcp_solves']}, fast path {d['lcp_fast_path']}, status {traj.status}")
     n = np.array([r[0] for r in rows], dtype=float)
@@ -107,9 +110,9 @@ def node_scaling(counts: list[int]) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--quick", action="store_true", help="2 s Housner run and nodes up to 256")
+    ap.add_argument("--quick", action="store_true", help="nodes up to 256 only")
     args = ap.parse_args()
-    housner_speed(2.0 if args.quick else 5.0)
+    housner_speed(2.0)
     node_scaling([4, 16, 64, 256] if args.quick else [4, 16, 64, 256, 1024])
     print(f"(machine: {__import__('os').cpu_count()} CPUs; load average {__import__('os').getloadavg()})")
 

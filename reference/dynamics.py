@@ -83,6 +83,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.linalg.lapack import dgesv as _dgesv
 
 from pbr_xval.reference import lcp
 
@@ -109,23 +110,52 @@ _CANG = np.hstack([
 ])
 
 
+_ZERO3 = np.zeros(3)
+_ZERO3.flags.writeable = False
+_EYE3 = np.eye(3)
+_EYE3.flags.writeable = False
+
+
+def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x = a⁻¹ b: LAPACK's dgesv (LU with partial pivoting), the routine behind
+    ``np.linalg.solve``, called directly (the small systems here are dominated by the
+    wrapper's overhead)."""
+    _, _, x, info = _dgesv(a, b)
+    if info > 0:
+        raise np.linalg.LinAlgError("Singular matrix")
+    return x
+
+
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for (3,) or (N, 3) arrays (broadcast); a fast replacement of ``np.cross``."""
+    if a.ndim == 1 and b.ndim == 2:  # ω × r for all nodes: ω as plain floats
+        a0, a1, a2 = a.tolist()
+        b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+        out = np.empty(b.shape)
+        out[:, 0] = a1 * b2 - a2 * b1
+        out[:, 1] = a2 * b0 - a0 * b2
+        out[:, 2] = a0 * b1 - a1 * b0
+        return out
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """``np.array_equal`` for two arrays (without its wrapper overhead)."""
+    return a.shape == b.shape and bool((a == b).all())
+
+
 def skew(w: np.ndarray) -> np.ndarray:
     """[w]× (3, 3) such that [w]× u = w × u."""
-    return np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    w0, w1, w2 = w.tolist()
+    return np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
 
 
 def cayley(w: np.ndarray) -> np.ndarray:
     """Cayley transform of the rotation vector-like w: (I − [w]×/2)⁻¹ (I + [w]×/2) ∈ SO(3)."""
     s = 0.5 * skew(w)
-    eye = np.eye(3)
-    return np.linalg.solve(eye - s, eye + s)
+    return solve(_EYE3 - s, _EYE3 + s)
 
 
 def cayley_project(r_new: np.ndarray, r_old: np.ndarray) -> np.ndarray:
@@ -136,11 +166,11 @@ def cayley_project(r_new: np.ndarray, r_old: np.ndarray) -> np.ndarray:
     mapped back by Q = (I − W_s)⁻¹ (I + W_s), which is exactly orthogonal with det = +1.
     ``r_old`` must be a rotation.
     """
-    eye = np.eye(3)
+    eye = _EYE3
     dr = r_new @ r_old.T
-    w = np.linalg.solve((dr + eye).T, (dr - eye).T).T  # (ΔR − I)(ΔR + I)⁻¹
+    w = solve((dr + eye).T, (dr - eye).T).T  # (ΔR − I)(ΔR + I)⁻¹
     ws = 0.5 * (w - w.T)
-    q = np.linalg.solve(eye - ws, eye + ws)
+    q = solve(eye - ws, eye + ws)
     return q @ r_old
 
 
@@ -186,8 +216,7 @@ class Pedestal:
 
     def motion(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.kinematics is None:
-            z = np.zeros(3)
-            return z, z, z
+            return _ZERO3, _ZERO3, _ZERO3
         return self.kinematics(t)
 
     def gaps(self, pts: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -220,6 +249,7 @@ class ContactStats:
     lcp_pivots: int = 0
     lcp_failures: int = 0
     pgs_sweeps: int = 0
+    cone_fallbacks: int = 0
     lcp_time: float = 0.0
     signorini_f: list[float] = field(default_factory=list)
     signorini_a: list[float] = field(default_factory=list)
@@ -258,6 +288,7 @@ class ContactStats:
             "lcp_pivots": self.lcp_pivots,
             "lcp_failures": self.lcp_failures,
             "pgs_sweeps": self.pgs_sweeps,
+            "cone_fallbacks": self.cone_fallbacks,
             "lcp_time_s": self.lcp_time,
             "signorini_force_max": mx(self.signorini_f),
             "signorini_accel_max": mx(self.signorini_a),
@@ -282,6 +313,9 @@ class _Contacts:
     slide: np.ndarray  # bool (k,) dynamic friction
     sdir: np.ndarray  # (k, 3) unit sliding direction (world) for sliding contacts
     stab: np.ndarray  # (3k,) velocity-stabilisation term v0/Δt added to b
+    nodes: np.ndarray  # (k, 3) the contact nodes in body coordinates
+    any_slide: bool = False
+    status: tuple | None = None  # (version of Stepper._active, guessed status per contact)
 
 
 class Stepper:
@@ -325,6 +359,8 @@ class Stepper:
         self.stats = ContactStats()
         n = body.nodes.shape[0]
         self._active = np.ones(n, dtype=int)  # per node: 0 free, 1 stick, 2 slide (last solve)
+        self._active_version = 0  # incremented whenever _active changes
+        self._rows_cache: dict[bytes, tuple] = {}  # status -> clamped rows (see _active_rows)
         self._prev_force = np.zeros((n, 3))  # per node: last (n, x, y) contact force, N
         self._load_cache: tuple[float, np.ndarray] = (math.nan, np.zeros(3))
         self._lin_cache: dict[int, np.ndarray] = {}
@@ -332,6 +368,8 @@ class Stepper:
         self._lref = float(np.linalg.eigvalsh(body.inertia).max()) / max(
             float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
         self._last: tuple | None = None
+        self._kin_cache: tuple | None = None  # (state, t, node_kinematics(state, t))
+        self._lin_m: dict[int, np.ndarray] = {}  # k -> _lin_block(k) / m
         self._pred: tuple | None = None  # (t1, Δt, F0, τ0, contact ids) for the predictor  # (t1, contact ids, slide flags, F1, τ1, load) of the last step
 
     # ------------------------------------------------------------------ kinematics
@@ -343,13 +381,22 @@ class Stepper:
         return R @ self.body.inertia_inv @ R.T
 
     def node_kinematics(self, s: State, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω."""
+        """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω.
+
+        The answer for the last (state object, t) is kept: the impact check and the contact
+        set of the step that follows are made at the same state (states are never modified
+        in place)."""
+        kc = self._kin_cache
+        if kc is not None and kc[0] is s and kc[1] == t:
+            return kc[2]
         r = self.body.nodes @ s.R.T
         d, vp, _ = self.ped.motion(t)
         gaps = self.ped.gaps(s.x + r, d)
         w = self.omega(s)
         vel = s.v + cross(w, r) - vp
-        return r, gaps, vel @ BASIS.T, w
+        out = (r, gaps, vel @ BASIS.T, w)
+        self._kin_cache = (s, t, out)
+        return out
 
     # ------------------------------------------------------------------ contact matrices
     def _jacobians(self, r: np.ndarray, slide: np.ndarray, sdir: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -405,7 +452,7 @@ class Stepper:
         if k == 0:
             return m * a_load, np.zeros(3), np.zeros(0)
         R = s.R
-        r = self.body.nodes[c.idx] @ R.T
+        r = c.nodes @ R.T
         iw = R @ self.body.inertia_inv @ R.T
         w = iw @ s.l
         _, _, ap = self.ped.motion(t)
@@ -416,13 +463,16 @@ class Stepper:
         kin = skew(alpha) + wx @ wx
         acc = r @ kin.T + (a_load - ap)
         b = acc[:, _NXY].ravel() + c.stab
-        if c.slide.any():
+        if c.any_slide:
             gm, gf = self._jacobians(r, c.slide, c.sdir)
             A = (gm[:, :3] @ gf[:, :3].T) / m + gm[:, 3:] @ iw @ gf[:, 3:].T
             f = self._solve_resting(A, b, c, diag)
             return m * a_load + gf[:, :3].T @ f, gf[:, 3:].T @ f, f
         gang = (r @ _CANG).reshape(3 * k, 3)  # rows r × n, r × x, r × y
-        A = self._lin_block(k) / m + gang @ iw @ gang.T
+        lin_m = self._lin_m.get(k)
+        if lin_m is None:
+            lin_m = self._lin_m[k] = self._lin_block(k) / m
+        A = lin_m + gang @ iw @ gang.T
         f = self._solve_resting(A, b, c, diag)
         F = m * a_load + f.reshape(k, 3).sum(axis=0)[_XYZ]
         return F, gang.T @ f, f
@@ -439,26 +489,46 @@ class Stepper:
         t0 = time.perf_counter()
         k = c.idx.size
         self.stats.lcp_solves += 1
-        status = self._active[c.idx]
-        status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
-        f = self._try_active_set(A, b, status)
+        if c.status is None or c.status[0] != self._active_version:
+            status = self._active[c.idx]
+            status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
+            c.status = (self._active_version, status)
+        f, a = self._try_active_set(A, b, c.status[1])
         if f is not None:
             self.stats.lcp_fast_path += 1
         else:
+            a = None
             f = self._full_resting(A, b, c)
             F = f.reshape(k, 3)
             # impending slip at the static cone boundary cannot be represented by the
             # fast path's statuses; the full solver answers again next time
             self._active[c.idx] = np.where(F[:, 0] > 0, np.where(c.slide, 2, 1), 0)
+            self._active_version += 1
         if diag:
-            a = A @ f + b
-            mu = np.where(c.slide, 0.0, self.mu_s)
-            self.stats.record_residuals(lcp.friction_residuals(f, a, mu))
+            if a is None:
+                a = A @ f + b
+            self._record_residuals(f, a, c.slide, c.any_slide)
         self._prev_force[c.idx] = f.reshape(k, 3)
         self.stats.lcp_time += time.perf_counter() - t0
         return f
 
-    def _try_active_set(self, A: np.ndarray, b: np.ndarray, status: np.ndarray) -> np.ndarray | None:
+    def _record_residuals(self, f: np.ndarray, a: np.ndarray, slide: np.ndarray, c_any_slide: bool) -> None:
+        """Record the eq. 3.6–3.7 residuals of :func:`lcp.friction_residuals` kept in the
+        statistics (Signorini on f and a, complementarity, cone; μ = 0 for sliding contacts,
+        whose tangential force rides on the normal one)."""
+        fn, ft1, ft2 = f[0::3], f[1::3], f[2::3]
+        an = a[0::3]
+        st = self.stats
+        st.signorini_f.append(max(0.0, -float(fn.min())))
+        st.signorini_a.append(max(0.0, -float(an.min())))
+        st.complementarity.append(float(np.abs(fn * an).max()))
+        ft_norm = np.sqrt(ft1 * ft1 + ft2 * ft2)
+        mu_fn = self.mu_s * fn
+        if c_any_slide:
+            mu_fn = np.where(slide, 0.0 * fn, mu_fn)
+        st.cone.append(max(0.0, float((ft_norm - mu_fn).max())))
+
+    def _try_active_set(self, A: np.ndarray, b: np.ndarray, status: np.ndarray) -> tuple:
         """One equality solve on the guessed active set; None unless eqs. 3.6–3.7 all hold.
 
         Clamped rows E (all three rows of a sticking contact, the normal row of a sliding
@@ -468,29 +538,43 @@ class Stepper:
         condition of eqs. 3.6–3.7 and rejected if any fails.
         """
         k = status.size
-        mask = np.empty((k, 3), dtype=bool)
-        mask[:, 0] = status > 0
-        mask[:, 1] = mask[:, 2] = status == 1
-        e = np.flatnonzero(mask.ravel())
+        e, e_ix, not_free, not_stick = self._active_rows(status)
         f = np.zeros(3 * k)
         if e.size:
-            sub = A[e][:, e]
-            shift = 1e-13 * float(np.trace(sub)) / e.size
+            sub = A[e_ix]
+            shift = 1e-13 * float(sub.trace()) / e.size
             sub.flat[:: e.size + 1] += shift
-            f[e] = np.linalg.solve(sub, -b[e])
+            f[e] = solve(sub, -b[e])
         a = A @ f + b
-        tol = 1e-9 * float(np.abs(b).max())
+        tol = 1e-9 * float(abs(b).max())
         F = f.reshape(k, 3)
         fn = F[:, 0]
-        fscale = 1e-9 * float(np.abs(fn).max())
-        if e.size and float(np.abs(a[e]).max()) > tol:
-            return None
+        fscale = 1e-9 * float(abs(fn).max())
+        if e.size and float(abs(a[e]).max()) > tol:
+            return None, None
         ok = fn >= -fscale
-        ok &= (status != 0) | (a[0::3] >= -tol)
-        ok &= (status != 1) | (np.hypot(F[:, 1], F[:, 2]) <= self.mu_s * fn * (1 + 1e-12) + fscale)
+        ok &= not_free | (a[0::3] >= -tol)
+        ok &= not_stick | (np.hypot(F[:, 1], F[:, 2]) <= self.mu_s * fn * (1 + 1e-12) + fscale)
         if not ok.all():
-            return None
-        return f
+            return None, None
+        return f, a
+
+    def _active_rows(self, status: np.ndarray) -> tuple:
+        """Clamped rows E of the status guess (all three rows of a sticking contact, the
+        normal row of a sliding one), the index of the block A_EE, and status ≠ 0, status ≠ 1.
+        Kept per status: the guess rarely changes from one solve to the next."""
+        key = status.tobytes()
+        hit = self._rows_cache.get(key)
+        if hit is None:
+            k = status.size
+            mask = np.empty((k, 3), dtype=bool)
+            mask[:, 0] = status > 0
+            mask[:, 1] = mask[:, 2] = status == 1
+            e = np.flatnonzero(mask.ravel())
+            if len(self._rows_cache) >= 256:
+                self._rows_cache.clear()
+            hit = self._rows_cache[key] = (e, np.ix_(e, e), status != 0, status != 1)
+        return hit
 
     def _full_resting(self, A: np.ndarray, b: np.ndarray, c: _Contacts) -> np.ndarray:
         k = c.idx.size
@@ -506,10 +590,18 @@ class Stepper:
             return f
         mu = np.where(c.slide, 0.0, self.mu_s)
         warm = self._prev_force[c.idx].reshape(-1)
-        res = lcp.solve_friction_cone(A, b, mu, tol=1e-12, max_iter=5000, warm_start=warm)
+        res = lcp.solve_friction_cone(A, b, mu, tol=1e-12, max_iter=60, restart_after=30, warm_start=warm)
         self.stats.pgs_sweeps += res.iterations
         if not res.converged:
-            self.stats.lcp_failures += 1
+            # the iterative cone solver stalls on some rank-deficient resting sets (e.g. four
+            # coplanar corners with a small approaching velocity): fall back to pivoting on a
+            # 16-facet friction pyramid (Lemke), exact for sticking contacts
+            pyr = lcp.solve_friction_pyramid(A, b, mu, n_facets=16)
+            self.stats.cone_fallbacks += 1
+            if pyr.ok:
+                res = pyr
+            else:
+                self.stats.lcp_failures += 1
         f = res.f.copy()
         f.reshape(k, 3)[c.slide, 1:] = 0.0
         return f
@@ -518,11 +610,11 @@ class Stepper:
     def resolve_impacts(self, s: State, t: float, dt: float) -> tuple[State, dict[str, Any] | None]:
         """Apply eq. 3.5 impulses when an in-band contact approaches faster than ``impact_velocity``."""
         r_all, gaps, vel, w = self.node_kinematics(s, t)
-        inband = np.flatnonzero(gaps <= self.eps)
+        inband = (gaps <= self.eps).nonzero()[0]
         if inband.size == 0:
             return s, None
         vn = vel[inband, 0]
-        if not np.any(vn < -self.v_imp):
+        if not (vn < -self.v_imp).any():
             return s, None
         t0 = time.perf_counter()
         idx = inband
@@ -576,6 +668,7 @@ class Stepper:
         w2 = self.omega(s2)
         self._prev_force[idx] = jt / max(dt, 1e-300)
         self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
+        self._active_version += 1
         self.stats.lcp_time += time.perf_counter() - t0
         vmin = float(vn.min())
         info = {
@@ -592,23 +685,25 @@ class Stepper:
     # ------------------------------------------------------------------ one step
     def _contacts(self, s: State, t: float, dt: float) -> _Contacts:
         _, gaps, vel, _ = self.node_kinematics(s, t)
-        idx = np.flatnonzero((gaps <= self.eps) & (vel[:, 0] <= self.v_sep))
+        idx = ((gaps <= self.eps) & (vel[:, 0] <= self.v_sep)).nonzero()[0]
         v = vel[idx]
         vt = np.hypot(v[:, 1], v[:, 2])
         slide = (vt > self.v_slip) & (self.mu_d > 0)
+        any_slide = bool(slide.any())
         sdir = np.zeros((idx.size, 3))
-        if np.any(slide):
+        if any_slide:
             sdir[slide] = (v[slide, 1:2] * BASIS[1] + v[slide, 2:3] * BASIS[2]) / vt[slide, None]
         # velocity stabilisation: null the small approaching normal velocity of resting
         # contacts and the tangential velocity of sticking ones over this step
         # (velocities below 1e-8 m/s are left alone: round-off, and it lets the end-of-step
         # forces of the previous step be reused as this step's start forces)
         vv = np.where(np.abs(v) > 1e-8, v, 0.0)
-        stab = np.zeros((idx.size, 3))
+        stab = vv / dt
         stab[:, 0] = np.minimum(vv[:, 0], 0.0) / dt
-        stick = ~slide
-        stab[stick, 1:] = vv[stick, 1:] / dt
-        return _Contacts(idx=idx, slide=slide, sdir=sdir, stab=stab.reshape(-1))
+        if any_slide:
+            stab[slide, 1:] = 0.0
+        return _Contacts(idx=idx, slide=slide, sdir=sdir, stab=stab.reshape(-1), nodes=self.body.nodes[idx],
+                         any_slide=any_slide)
 
     def step(self, s0: State, t0: float, dt: float) -> tuple[State, int]:
         """Constant-average-acceleration step t0 → t0 + dt with direct iteration.
@@ -619,7 +714,7 @@ class Stepper:
             if a node ends the step deeper than ε below the pedestal surface.
         """
         m = self.body.mass
-        F1, tau1 = np.zeros(3), np.zeros(3)
+        F1 = tau1 = _ZERO3
         t1 = t0 + dt
         tl0 = t0 + 1e-9 * dt  # one-sided load values at the step ends (pulse jumps)
         tl1 = t1 - 1e-9 * dt
@@ -629,9 +724,10 @@ class Stepper:
             last is not None
             and last[0] == t0
             and not c.stab.any()
-            and np.array_equal(last[1], c.idx)
-            and np.array_equal(last[2], c.slide)
-            and np.allclose(self._load(tl0), last[5], rtol=1e-9, atol=1e-12)
+            and _same(last[1], c.idx)
+            and _same(last[2], c.slide)
+            # np.allclose(load, previous load, rtol=1e-9, atol=1e-12) on plain floats
+            and all(abs(x - y) <= 1e-12 + 1e-9 * abs(y) for x, y in zip(self._load(tl0).tolist(), last[5].tolist(), strict=True))
         )
         if reuse:
             # the end-of-step forces of the previous step, at the same state and time
@@ -645,7 +741,7 @@ class Stepper:
         # step (explicit Euler after an impact, a breakpoint or a change of step)
         Fp, taup = F0, tau0
         prev = self._pred
-        if prev is not None and prev[0] == t0 and prev[1] == dt and np.array_equal(prev[4], c.idx):
+        if prev is not None and prev[0] == t0 and prev[1] == dt and _same(prev[4], c.idx):
             Fp, taup = 2.0 * F0 - prev[2], 2.0 * tau0 - prev[3]
         self._pred = (t1, dt, F0, tau0, c.idx)
         vp = s0.v + 0.5 * dt * (F0 + Fp) / m
@@ -654,8 +750,9 @@ class Stepper:
         its = 0
         converged = False
         # convergence scales: the current momentum, or what the loads (≈ g) give in one step
-        vscale = max(float(np.linalg.norm(s0.v)), float(np.linalg.norm(self._load(tl0))) * dt, 1e-300)
-        lscale = max(float(np.linalg.norm(s0.l)), self._lref * vscale, 1e-300)
+        a0 = self._load(tl0)
+        vscale = max(math.sqrt(s0.v.dot(s0.v)), math.sqrt(a0.dot(a0)) * dt, 1e-300)
+        lscale = max(math.sqrt(s0.l.dot(s0.l)), self._lref * vscale, 1e-300)
         for its in range(1, self.iterations + 1):
             F1, tau1, _ = self.contact_forces(s1, tl1, c, diag=reuse and its == 1)
             v1 = s0.v + 0.5 * dt * (F0 + F1) / m  # eq. 3.2, constant average acceleration
@@ -664,12 +761,13 @@ class Stepper:
             w1 = s1.R @ (self.body.inertia_inv @ (s1.R.T @ l1))  # ω = I⁻¹ l at the current R estimate
             R1 = s0.R + 0.5 * dt * (W0R0 + skew(w1) @ s1.R)  # eq. 3.3, trapezoidal
             # det R = 1 and RᵀR = I check; Cayley projection back onto SO(3)
-            if abs(np.linalg.det(R1) - 1.0) > self.orth_tol or np.max(np.abs(R1.T @ R1 - np.eye(3))) > self.orth_tol:
+            if abs(np.linalg.det(R1) - 1.0) > self.orth_tol or abs(R1.T @ R1 - _EYE3).max() > self.orth_tol:
                 R1 = cayley_project(R1, s0.R)
                 self.stats.cayley_projections += 1
-            dv = float(np.linalg.norm(v1 - s1.v)) / vscale
-            dl = float(np.linalg.norm(l1 - s1.l)) / lscale
-            dR = float(np.max(np.abs(R1 - s1.R)))
+            ddv, ddl = v1 - s1.v, l1 - s1.l
+            dv = math.sqrt(ddv.dot(ddv)) / vscale
+            dl = math.sqrt(ddl.dot(ddl)) / lscale
+            dR = float(abs(R1 - s1.R).max())
             s1 = State(x1, v1, R1, l1)
             if max(dv, dl, dR) <= self.itol:
                 converged = True
@@ -683,7 +781,7 @@ class Stepper:
         r = self.body.nodes @ s1.R.T
         d, _, _ = self.ped.motion(t1)
         gaps = self.ped.gaps(s1.x + r, d)
-        gmin = float(np.min(gaps))
+        gmin = float(gaps.min())
         self.last_gaps = gaps
         if gmin < -self.eps:
             raise StepRejected(gmin)

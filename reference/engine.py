@@ -16,6 +16,7 @@ Usage::
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Mapping
@@ -69,6 +70,57 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
         )
     order = np.lexsort((pts[:, 1], pts[:, 0], pts[:, 2]))
     return pts[order][:nmax]
+
+
+def _step_starts(t: float, n: int, *, bps: list[float], dt_nom: float, duration: float) -> list[tuple[float, float]]:
+    """(t0, Δt) of the next ``n`` steps from t without step-backs: the engine's own time
+    arithmetic (steps of Δt ending on the excitation breakpoints), replayed."""
+    out = []
+    bp_i = 0
+    while len(out) < n and t < duration - 1e-12 * dt_nom:
+        while bp_i < len(bps) and bps[bp_i] <= t + 1e-12 * dt_nom:
+            bp_i += 1
+        t_next_bp = bps[bp_i] if bp_i < len(bps) else duration
+        h = min(dt_nom, t_next_bp - t)
+        out.append((t, h))
+        t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
+    return out
+
+
+class _StepLoad:
+    """The non-contact load t -> (3,) with the excitation evaluated ahead of time.
+
+    The stepper asks for the load at t0 + 1e-9 Δt and t0 + Δt − 1e-9 Δt of every step
+    (one-sided values at the step ends). The times of the next ``block`` steps are known
+    (fixed Δt, breakpoints), so the excitation is evaluated for all of them in one
+    vectorised call; any other time (a step-back) is evaluated directly.
+    """
+
+    block = 256
+
+    def __init__(self, direct: Any, many: Any) -> None:
+        self.direct = direct
+        self.many = many
+        self.plan: Any = None  # (t, n) -> [(t0, Δt), ...]
+        self._starts: set[float] = set()
+        self._table: dict[float, np.ndarray] = {}
+
+    def at_step(self, t: float) -> None:
+        """Called at every step start; re-plans when t is not a planned step start."""
+        if t in self._starts or self.plan is None:
+            return
+        steps = self.plan(t, self.block)
+        times = []
+        for t0, dt in steps:
+            times.append(t0 + 1e-9 * dt)
+            times.append((t0 + dt) - 1e-9 * dt)
+        vals = self.many(np.array(times)) if times else np.zeros((0, 3))
+        self._starts = {t0 for t0, _ in steps[:-1]}  # the last start re-plans the next block
+        self._table = dict(zip(times, vals, strict=True))
+
+    def __call__(self, t: float) -> np.ndarray:
+        v = self._table.get(t)
+        return self.direct(t) if v is None else v
 
 
 class ReferenceEngine(EngineBase):
@@ -145,8 +197,13 @@ class ReferenceEngine(EngineBase):
         g = float(scene.gravity)
         gvec = np.array([0.0, 0.0, -g])
         if mode == "inertial":
-            def load(t: float) -> np.ndarray:
+            def load_direct(t: float) -> np.ndarray:
                 return gvec - np.asarray(exc.acceleration(t), dtype=float)
+
+            def load_many(ts: np.ndarray) -> np.ndarray:
+                return gvec - np.asarray(exc.acceleration(ts), dtype=float).reshape(-1, 3)
+
+            load = _StepLoad(load_direct, load_many)
         else:
             def load(t: float) -> np.ndarray:
                 return gvec
@@ -177,11 +234,14 @@ class ReferenceEngine(EngineBase):
         size = float(np.ptp(scene.rock.mesh.vertices))
         rest_v = float(s["rest_velocity"])
         held_from = None
+        contacts_max = 0
         next_out = 0.0
         guard = self._near_topple_guard(scene)
         wall0 = time.perf_counter()
         t = 0.0
         message = ""
+        if isinstance(load, _StepLoad):
+            load.plan = functools.partial(_step_starts, bps=bps, dt_nom=dt_nom, duration=duration)
         try:
             stop = rec.record(0.0, self._rel_com(state, pedestal, 0.0), state.R, stepper.omega(state),
                               penetration=stepper.penetration(state, 0.0), force=True)
@@ -194,6 +254,8 @@ class ReferenceEngine(EngineBase):
                     bp_i += 1
                 t_next_bp = bps[bp_i] if bp_i < len(bps) else duration
                 h = min(dt_nom, t_next_bp - t)
+                if isinstance(load, _StepLoad):
+                    load.at_step(t)
                 state, info = stepper.resolve_impacts(state, t, h)
                 if info is not None:
                     stepper.stats.impacts += 1
@@ -221,6 +283,7 @@ class ReferenceEngine(EngineBase):
                 t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
                 stepper.stats.steps += 1
                 gaps = stepper.last_gaps
+                contacts_max = max(contacts_max, int((gaps <= stepper.eps).sum()))
                 pen = max(0.0, -float(gaps.min()))
                 stepper.stats.max_penetration = max(stepper.stats.max_penetration, pen)
                 com_rel = self._rel_com(state, pedestal, t)
@@ -254,6 +317,7 @@ class ReferenceEngine(EngineBase):
             wall_per_simulated_s=wall / t if t > 0 else float("nan"),
             lcp_time_fraction=diag["lcp_time_s"] / wall if wall > 0 else float("nan"),
             held_at_rest_from_s=held_from,
+            contacts_max=contacts_max,
         )
         traj = rec.trajectory(self.name, s, self.versions(), diag)
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
