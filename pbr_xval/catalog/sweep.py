@@ -93,6 +93,8 @@ def _thread_env() -> Iterator[None]:
 def _init_worker() -> None:
     for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[k] = "1"
+    # the store's writer: imported once per worker, not on the first chunk's clock
+    import pyarrow.parquet  # noqa: F401
 
 
 def _crash_reason(exc: BaseException) -> str:
