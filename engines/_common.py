@@ -337,17 +337,11 @@ def write_obj(vertices: np.ndarray, faces: np.ndarray, tag: str) -> Path:
     h.update(f.tobytes())
     path = cache_dir() / "obj" / f"{tag}_{h.hexdigest()[:24]}.obj"
     if not path.exists():
-        path.parent.mkdir(parents=True, exist_ok=True)
+        from pbr_xval.atomic import write_text_atomic
+
         lines = [f"v {x!r} {y!r} {z!r}" for x, y, z in v.tolist()]
         lines += [f"f {a + 1} {b + 1} {c + 1}" for a, b, c in f.tolist()]
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w") as fh:
-                fh.write("\n".join(lines) + "\n")
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_text_atomic(path, "\n".join(lines) + "\n")
     return path
 
 

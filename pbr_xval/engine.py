@@ -23,7 +23,6 @@ import json
 import math
 import os
 import platform
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -320,23 +319,13 @@ class Trajectory:
     def save_parquet(self, path: str | os.PathLike[str]) -> Path:
         """Write the samples to Parquet, provenance in the schema metadata, atomically."""
         import pyarrow as pa
-        import pyarrow.parquet as pq
 
-        path = Path(path)
+        from pbr_xval.atomic import write_parquet_atomic
+
         table = pa.Table.from_pandas(self.to_dataframe(), preserve_index=False)
         meta = dict(table.schema.metadata or {})
         meta[b"pbr_xval"] = json.dumps(self.metadata(), sort_keys=True).encode()
-        table = table.replace_schema_metadata(meta)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-        os.close(fd)
-        try:
-            pq.write_table(table, tmp)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        return write_parquet_atomic(path, table.replace_schema_metadata(meta))
 
     @classmethod
     def load_parquet(cls, path: str | os.PathLike[str]) -> Trajectory:

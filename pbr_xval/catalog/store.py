@@ -17,9 +17,11 @@ from __future__ import annotations
 import json
 import os
 import re
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from pbr_xval.atomic import write_parquet_atomic
+from pbr_xval.atomic import write_text_atomic as _write_text_atomic
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -68,7 +70,6 @@ def _fsync_dir(d: Path) -> None:
 def write_chunk(out: str | os.PathLike[str], spec: ChunkSpec, rows: list[dict[str, Any]], provenance: dict[str, Any]) -> Path:
     """Write one chunk's rows atomically (temp file in the same dir, fsync, os.replace)."""
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
     path = chunk_path(out, spec)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -76,16 +77,7 @@ def write_chunk(out: str | os.PathLike[str], spec: ChunkSpec, rows: list[dict[st
     table = pa.Table.from_pylist(rows, schema=schema)
     meta = {"content_hash": spec.content_hash(), "spec": spec.to_dict(), "provenance": provenance}
     table = table.replace_schema_metadata({META_KEY: json.dumps(meta, sort_keys=True, default=str).encode()})
-    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            pq.write_table(table, fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_parquet_atomic(path, table, hidden=True)
     _fsync_dir(path.parent)
     return path
 
@@ -141,16 +133,5 @@ def load_results(out: str | os.PathLike[str], *, tag: str | None = None) -> pd.D
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    """Atomic text write with a hidden temporary name (see :mod:`pbr_xval.atomic`)."""
+    return _write_text_atomic(path, text, hidden=True)
