@@ -176,8 +176,13 @@ def threshold(
     variant = res.settings.get("variant")
     label = escape(f"{engine}" + (f" ({variant})" if variant else "") + (f" [{prof}]" if prof else ""))
     if res.minimum is None:
-        console.print(f"{label}: never toppled for {param} in [{res.grid[0]:.6g}, {res.grid[-1]:.6g}] {unit} "
-                      f"({res.n_simulations} simulations)")
+        how = (
+            f"it never rocked (largest tilt {res.max_tilt:.1e} rad)"
+            if res.max_tilt < 1e-3
+            else f"it rocked (largest tilt {res.max_tilt:.3g} rad) but never toppled"
+        )
+        console.print(f"{label}: never toppled for {param} in [{res.grid[0]:.6g}, {res.grid[-1]:.6g}] {unit}: "
+                      f"{how} ({res.n_simulations} simulations)")
     else:
         tol = res.tolerance or 0.0
         console.print(

@@ -73,6 +73,8 @@ class ThresholdResult:
     versions: dict[str, str] = field(default_factory=dict)
     scenario_hash: str = ""
     wall_time: float = 0.0
+    #: largest tilt (rad) seen in any simulation of the search (0: the rock never rocked)
+    max_tilt: float = 0.0
 
     @property
     def minimum(self) -> float | None:
@@ -121,6 +123,7 @@ class ThresholdResult:
             "versions": self.versions,
             "scenario_hash": self.scenario_hash,
             "wall_time": self.wall_time,
+            "max_tilt_rad": self.max_tilt,
         }
 
 
@@ -157,6 +160,7 @@ def find_threshold(
     if not (0 < lo < hi):
         raise ValueError(f"threshold search needs 0 < lo < hi, got lo={lo}, hi={hi}")
     count = 0
+    max_tilt = [0.0]
     used_settings: dict[str, Any] = {}
     versions: dict[str, str] = {}
     t_start = time.perf_counter()
@@ -170,6 +174,8 @@ def find_threshold(
         if not traj.ok:
             raise RuntimeError(f"engine {eng.name!r} failed at {param} = {value}: {traj.message}")
         used_settings, versions = full, traj.versions or eng.versions()
+        if traj.t.size:
+            max_tilt[0] = max(max_tilt[0], float(np.max(traj.tilt())))
         out = traj.toppled
         if progress is not None:
             progress(count, value, out)
@@ -210,4 +216,5 @@ def find_threshold(
         versions=versions,
         scenario_hash=scenario.content_hash(),
         wall_time=time.perf_counter() - t_start,
+        max_tilt=max_tilt[0],
     )

@@ -219,3 +219,16 @@ def test_notched_block_coacd_parts_are_cached(tmp_path, monkeypatch):
     assert hi.ok and hi.toppled
     assert [f.stat().st_mtime_ns for f in parts] == mtimes  # reused, not rewritten
     assert not list(Path(ROOT).rglob("pybullet_coacd_*.obj"))  # nothing written into the repo
+
+
+def test_cli_says_engine_default_never_rocks():
+    from typer.testing import CliRunner
+
+    from pbr_xval.cli import app
+
+    res = CliRunner().invoke(
+        app, ["threshold", str(Path(ROOT) / "examples" / "housner_halfsine.toml"), "--engine", "pybullet",
+              "--profile", "engine-default", "--n-grid", "3"],
+    )
+    assert res.exit_code == 0, res.output
+    assert "never toppled" in res.output and "never rocked" in res.output
