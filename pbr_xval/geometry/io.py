@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from pbr_xval.geometry.mesh import MeshError
+from pbr_xval.geometry.mesh import MeshError, merge_and_clean
 from pbr_xval.scenario import UNIT_SCALE, file_sha256
 
 __all__ = [
@@ -301,15 +301,7 @@ def close_and_orient(mesh: trimesh.Trimesh, path: str | Path, repairs: list[str]
 
     Appends what was repaired to ``repairs``.
     """
-    n_v = len(mesh.vertices)
-    mesh.merge_vertices()
-    if len(mesh.vertices) != n_v:
-        repairs.append(f"merged {n_v - len(mesh.vertices)} duplicate vertices")
-    n_f = len(mesh.faces)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
-    if len(mesh.faces) != n_f:
-        repairs.append(f"removed {n_f - len(mesh.faces)} degenerate or duplicate faces")
+    merge_and_clean(mesh, repairs)
     mesh.remove_unreferenced_vertices()
     if len(mesh.faces) < 4:
         raise GeometryError(f"{path}: only {len(mesh.faces)} non-degenerate faces; expected a closed surface")

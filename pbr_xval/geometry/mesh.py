@@ -19,6 +19,22 @@ class MeshError(ValueError):
     """A mesh cannot be simulated; the message names the file, what was found and what was expected."""
 
 
+def merge_and_clean(mesh: trimesh.Trimesh, repairs: list[str]) -> None:
+    """Safe repairs in place: merge duplicate vertices, drop degenerate and duplicate faces.
+
+    Appends a line to ``repairs`` for each repair that changed something.
+    """
+    n_v = len(mesh.vertices)
+    mesh.merge_vertices()
+    if len(mesh.vertices) != n_v:
+        repairs.append(f"merged {n_v - len(mesh.vertices)} duplicate vertices")
+    n_f = len(mesh.faces)
+    mesh.update_faces(mesh.nondegenerate_faces())
+    mesh.update_faces(mesh.unique_faces())
+    if len(mesh.faces) != n_f:
+        repairs.append(f"removed {n_f - len(mesh.faces)} degenerate or duplicate faces")
+
+
 def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, dict[str, Any]]:
     """Load a triangle mesh, convert to metres and re-centre it in float64.
 
@@ -43,15 +59,7 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
     offset = v.mean(axis=0)
     mesh = trimesh.Trimesh(vertices=v - offset, faces=f, process=False)
     repairs: list[str] = []
-    n_v = len(mesh.vertices)
-    mesh.merge_vertices()
-    if len(mesh.vertices) != n_v:
-        repairs.append(f"merged {n_v - len(mesh.vertices)} duplicate vertices")
-    n_f = len(mesh.faces)
-    mesh.update_faces(mesh.nondegenerate_faces())
-    mesh.update_faces(mesh.unique_faces())
-    if len(mesh.faces) != n_f:
-        repairs.append(f"removed {n_f - len(mesh.faces)} degenerate or duplicate faces")
+    merge_and_clean(mesh, repairs)
     info = {
         "path": str(path),
         "sha256": file_sha256(path),

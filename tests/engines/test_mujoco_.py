@@ -7,7 +7,6 @@ Values marked "measured" are from this adapter with MuJoCo 4.0.1.
 
 from __future__ import annotations
 
-import itertools
 import math
 import subprocess
 import sys
@@ -20,6 +19,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 
+from pbr_xval.conformance import rebound_ratios
 from pbr_xval.engine import get_engine
 from pbr_xval.runner import run_scene
 from pbr_xval.scenario import scenario_from_dict
@@ -129,25 +129,6 @@ def test_ground_motion_modes_agree():
     assert peaks["inertial"] > 0.5  # it does rock
 
 
-def rebound_ratios(traj, scene) -> list[float]:
-    """Successive ratios of the energy-equivalent ω0 = sqrt(θ̇² + 2p²[cos(α−|θ|) − cos α]) per half-cycle."""
-    m, iyy = scene.rock.mass, scene.rock.inertia[1, 1]
-    r = math.hypot(B, H)
-    p2 = m * G * r / (iyy + m * r * r)
-    th = traj.rocking_angle()
-    thd = traj.omega @ scene.rocking_axis
-    w0 = np.sqrt(np.maximum(thd**2 + 2 * p2 * (np.cos(ALPHA - np.abs(th)) - math.cos(ALPHA)), 0.0))
-    cuts = np.flatnonzero(np.sign(th[1:]) != np.sign(th[:-1])) + 1
-    edges = [0, *cuts.tolist(), len(th)]
-    medians = []
-    for a, b in itertools.pairwise(edges):
-        if b - a < 20:
-            break
-        q = (b - a) // 4
-        medians.append(float(np.median(w0[a + q : b - q])))
-    return [medians[i + 1] / medians[i] for i in range(len(medians) - 1)]
-
-
 def test_free_rocking_rebound():
     # measured at dt 1e-4: 0.8502, 0.8498, 0.8504, 0.8501 ... (Housner: 0.850)
     data = housner_dict(**{"initial.theta_over_alpha": 0.5, "duration": 3.0})
@@ -156,7 +137,7 @@ def test_free_rocking_rebound():
     traj = run_scene(scene, "mujoco", {"timestep": 1e-4})
     assert traj.ok and not traj.toppled
     assert traj.diagnostics["settled"] is False
-    ratios = rebound_ratios(traj, scene)
+    ratios = list(rebound_ratios(traj, scene))
     assert len(ratios) >= 2
     assert ratios[:2] == pytest.approx([0.850] * 2, abs=0.005)
 
