@@ -18,7 +18,9 @@ def catalog(engine: str, n_rocks: int, n_motions: int) -> object:
     rocks = []
     for i in range(n_rocks):
         b = 0.15 + 0.03 * (i % 4)
-        rocks.append({"id": f"box{i}", "shape": "box", "half_extents": [b, b, 0.6], "density": 2500.0, "friction": 2.0})
+        rocks.append(
+            {"id": f"box{i}", "shape": "box", "half_extents": [b, b, 0.6], "density": 2500.0, "friction": 2.0}
+        )
     amps = [3.0 + 6.0 * k / max(n_motions // 2 - 1, 1) for k in range(max(n_motions // 2, 1))]
     data = {
         "name": "bench", "seed": 1, "duration": 2.0, "engines": [engine], "chunk_size": 6,
@@ -53,9 +55,13 @@ def main() -> None:
     per_sim = s1.compute_s / s1.simulations
     core_h = 1e6 * per_sim / 3600
     print(f"scaling efficiency 1→2 workers: {eff:.1%} (target ≥ 85 %)")
-    print(f"store overhead: {1e3 * s1.write_s / s1.done:.1f} ms per chunk = {overhead:.2%} of compute (target < 5 %)")
+    print(
+        f"store overhead: {1e3 * s1.write_s / s1.done:.1f} ms per chunk = {overhead:.2%} of compute (target < 5 %)"
+    )
     print(f"compute per simulation ({a.engine}): {per_sim:.3f} s")
-    print(f"projected 1,000 rocks × 1,000 motions: {core_h:.0f} core-hours = {core_h / 100:.1f} h on 100 cores")
+    print(
+        f"projected 1,000 rocks × 1,000 motions: {core_h:.0f} core-hours = {core_h / 100:.1f} h on 100 cores"
+    )
 
 
 if __name__ == "__main__":

@@ -44,14 +44,31 @@ def bare_pybullet(dt: float) -> float:
 
     cid = p.connect(p.DIRECT)
     try:
-        p.setPhysicsEngineParameter(fixedTimeStep=dt, numSubSteps=0, numSolverIterations=50, physicsClientId=cid)
-        ped = p.createMultiBody(0, p.createCollisionShape(p.GEOM_BOX, halfExtents=[50, 50, 0.5], physicsClientId=cid),
-                                basePosition=[0, 0, -0.5], physicsClientId=cid)
-        blk = p.createMultiBody(MASS, p.createCollisionShape(p.GEOM_BOX, halfExtents=[B, D, H], physicsClientId=cid),
-                                basePosition=[0, 0, H], physicsClientId=cid)
+        p.setPhysicsEngineParameter(
+            fixedTimeStep=dt, numSubSteps=0, numSolverIterations=50, physicsClientId=cid
+        )
+        ped = p.createMultiBody(
+            0,
+            p.createCollisionShape(p.GEOM_BOX, halfExtents=[50, 50, 0.5], physicsClientId=cid),
+            basePosition=[0, 0, -0.5],
+            physicsClientId=cid,
+        )
+        blk = p.createMultiBody(
+            MASS,
+            p.createCollisionShape(p.GEOM_BOX, halfExtents=[B, D, H], physicsClientId=cid),
+            basePosition=[0, 0, H],
+            physicsClientId=cid,
+        )
         for body, mu in ((ped, 1.0), (blk, 2.0)):
-            p.changeDynamics(body, -1, lateralFriction=mu, restitution=0.0, linearDamping=0, angularDamping=0,
-                             physicsClientId=cid)
+            p.changeDynamics(
+                body,
+                -1,
+                lateralFriction=mu,
+                restitution=0.0,
+                linearDamping=0,
+                angularDamping=0,
+                physicsClientId=cid,
+            )
         p.setGravity(0, 0, -G, physicsClientId=cid)
         n_set, n = round(SETTLE / dt), round(DURATION / dt)
         a = drive(dt, n)
@@ -166,12 +183,17 @@ def main() -> None:
     ap.add_argument("--engines", default="pybullet,mujoco,dart")
     ap.add_argument("--dts", default="1e-3,1e-4")
     args = ap.parse_args()
-    scn = housner_scenario(excitation={"type": "half_sine", "amplitude": AMP, "phase": "housner_uplift"},
-                           settle_time=SETTLE, duration=DURATION)
+    scn = housner_scenario(
+        excitation={"type": "half_sine", "amplitude": AMP, "phase": "housner_uplift"},
+        settle_time=SETTLE,
+        duration=DURATION,
+    )
     scene = compile_scene(scn)
     sim_s = SETTLE + DURATION
-    print(f"Housner block, half-sine a = {AMP} m/s² (sub-threshold), {SETTLE} s settling + {DURATION} s; "
-          f"best of {args.repeat}; wall seconds per simulated second")
+    print(
+        f"Housner block, half-sine a = {AMP} m/s² (sub-threshold), {SETTLE} s settling + {DURATION} s; "
+        f"best of {args.repeat}; wall seconds per simulated second"
+    )
     print(f"{'engine':10s} {'dt':>8s} {'adapter':>10s} {'bare loop':>10s} {'overhead':>9s} {'peak θ/α':>9s}")
     for name in args.engines.split(","):
         try:
@@ -186,15 +208,20 @@ def main() -> None:
                 t0 = time.perf_counter()
                 traj = run_scene(scene, name, {"timestep": dt})
                 adapter = min(adapter, time.perf_counter() - t0)
-                peak = traj.diagnostics.get("peak_theta_ratio", float(np.max(np.abs(traj.rocking_angle()))) /
-                                            math.atan(B / H))
+                peak = traj.diagnostics.get(
+                    "peak_theta_ratio", float(np.max(np.abs(traj.rocking_angle()))) / math.atan(B / H)
+                )
                 bare = min(bare, BARE[name](dt))
-            print(f"{name:10s} {dt:8.0e} {adapter / sim_s:10.4f} {bare / sim_s:10.4f} {adapter / bare:8.2f}× "
-                  f"{peak:9.4f}")
+            print(
+                f"{name:10s} {dt:8.0e} {adapter / sim_s:10.4f} {bare / sim_s:10.4f} {adapter / bare:8.2f}× "
+                f"{peak:9.4f}"
+            )
     try:
         loop, native = mujoco_multistep_gain(1e-3)
-        print(f"mujoco settling ({SETTLE} s at dt 1e-3): Python loop {loop * 1e3:.2f} ms, "
-              f"mj_step(m, d, n) {native * 1e3:.2f} ms, gain {loop / native:.2f}×")
+        print(
+            f"mujoco settling ({SETTLE} s at dt 1e-3): Python loop {loop * 1e3:.2f} ms, "
+            f"mj_step(m, d, n) {native * 1e3:.2f} ms, gain {loop / native:.2f}×"
+        )
     except ImportError:
         pass
 

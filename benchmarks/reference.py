@@ -43,25 +43,33 @@ def _timed(scene, engine, settings=None):
 
 
 def housner_speed(duration: float) -> None:
-    scene = compile_scene(conf.housner_scenario(
-        duration=duration,
-        excitation={"type": "half_sine", "amplitude": 5.0, "frequency": 1.0, "phase": "housner_uplift"},
-    ))
+    scene = compile_scene(
+        conf.housner_scenario(
+            duration=duration,
+            excitation={"type": "half_sine", "amplitude": 5.0, "frequency": 1.0, "phase": "housner_uplift"},
+        )
+    )
     print(f"== Housner block, half-sine a = 5.0 m/s², {duration:g} s simulated, dt = 1e-3 s")
     _timed(compile_scene(conf.housner_scenario(duration=0.05)), "reference")  # warm-up (imports, caches)
     traj, wall, cpu = min((_timed(scene, "reference") for _ in range(2)), key=lambda r: r[2])  # best of 2
     d = traj.diagnostics
     t_sim = float(d["simulated_s"])
     held = d.get("held_at_rest_from_s")
-    print(f"reference: status {traj.status}, toppled {traj.toppled}, steps {d['steps']}, impacts {d['impacts']}, "
-          f"held at rest from {held}")
-    print(f"reference: wall {wall:.2f} s, CPU {cpu:.2f} s -> {wall / t_sim:.3f} wall-s and {cpu / t_sim:.3f} CPU-s "
-          f"per simulated s; contact solves {d['lcp_time_s']:.2f} s ({100 * d['lcp_time_fraction']:.0f} %)")
+    print(
+        f"reference: status {traj.status}, toppled {traj.toppled}, steps {d['steps']}, impacts {d['impacts']}, "
+        f"held at rest from {held}"
+    )
+    print(
+        f"reference: wall {wall:.2f} s, CPU {cpu:.2f} s -> {wall / t_sim:.3f} wall-s and {cpu / t_sim:.3f} CPU-s "
+        f"per simulated s; contact solves {d['lcp_time_s']:.2f} s ({100 * d['lcp_time_fraction']:.0f} %)"
+    )
     # the same without the at-rest hold (every step integrated)
     traj2, wall2, cpu2 = _timed(scene, "reference", {"rest_velocity": 0.0})
     d2 = traj2.diagnostics
-    print(f"reference (no rest hold): steps {d2['steps']}, wall {wall2:.2f} s, CPU {cpu2:.2f} s -> "
-          f"{cpu2 / duration:.3f} CPU-s per simulated s, {1e3 * cpu2 / max(1, d2['steps']):.3f} ms CPU per step")
+    print(
+        f"reference (no rest hold): steps {d2['steps']}, wall {wall2:.2f} s, CPU {cpu2:.2f} s -> "
+        f"{cpu2 / duration:.3f} CPU-s per simulated s, {1e3 * cpu2 / max(1, d2['steps']):.3f} ms CPU per step"
+    )
     try:
         get_engine("mujoco")
     except (EngineNotAvailable, ImportError) as exc:
@@ -72,11 +80,15 @@ def housner_speed(duration: float) -> None:
     except Exception as exc:  # the adapter is someone else's work in progress
         print(f"mujoco: failed ({type(exc).__name__}: {exc}); no ratio")
         return
-    print(f"mujoco: status {tm.status}, toppled {tm.toppled}, wall {wm:.2f} s, CPU {cm:.2f} s -> "
-          f"{wm / duration:.4f} wall-s and {cm / duration:.4f} CPU-s per simulated s")
-    print(f"ratio reference / mujoco (wall, with rest hold): {wall / max(wm, 1e-9):.1f}; "
-          f"(CPU, with rest hold): {cpu / max(cm, 1e-9):.1f}; "
-          f"(CPU, every step integrated): {cpu2 / max(cm, 1e-9):.1f}")
+    print(
+        f"mujoco: status {tm.status}, toppled {tm.toppled}, wall {wm:.2f} s, CPU {cm:.2f} s -> "
+        f"{wm / duration:.4f} wall-s and {cm / duration:.4f} CPU-s per simulated s"
+    )
+    print(
+        f"ratio reference / mujoco (wall, with rest hold): {wall / max(wm, 1e-9):.1f}; "
+        f"(CPU, with rest hold): {cpu / max(cm, 1e-9):.1f}; "
+        f"(CPU, every step integrated): {cpu2 / max(cm, 1e-9):.1f}"
+    )
 
 
 def node_scaling(counts: list[int]) -> None:
@@ -84,10 +96,14 @@ def node_scaling(counts: list[int]) -> None:
     rows = []
     for n in counts:
         steps = 100 if n <= 16 else (30 if n <= 64 else (8 if n <= 256 else 2))
-        scene = compile_scene(conf.housner_scenario(
-            name="bench_nodes", duration=steps * 1e-3, output_dt=1e-3,
-            excitation={"type": "half_sine", "amplitude": 3.0, "frequency": 1.0, "phase": 0.0},
-        ))
+        scene = compile_scene(
+            conf.housner_scenario(
+                name="bench_nodes",
+                duration=steps * 1e-3,
+                output_dt=1e-3,
+                excitation={"type": "half_sine", "amplitude": 3.0, "frequency": 1.0, "phase": 0.0},
+            )
+        )
         settings = {"nodes": "grid", "max_nodes": n, "rest_velocity": 0.0}
         traj, _, _ = _timed(scene, "reference", settings)
         d = traj.diagnostics  # wall_s / lcp_time_s are measured inside the stepping loop
@@ -95,9 +111,11 @@ def node_scaling(counts: list[int]) -> None:
         per = d["wall_s"] / nst
         lcp_per = d["lcp_time_s"] / nst
         rows.append((n, d["n_nodes"], per, lcp_per))
-        print(f"n = {n:5d} (nodes {d['n_nodes']:5d}, contacts max {d.get('contacts_max', '?')}): {1e3 * per:9.2f} ms/step, "
-              f"contact solve {1e3 * lcp_per:9.2f} ms, rest {1e3 * (per - lcp_per):7.2f} ms; "
-              f"steps {nst}, solves {d['lcp_solves']}, fast path {d['lcp_fast_path']}, status {traj.status}")
+        print(
+            f"n = {n:5d} (nodes {d['n_nodes']:5d}, contacts max {d.get('contacts_max', '?')}): {1e3 * per:9.2f} ms/step, "
+            f"contact solve {1e3 * lcp_per:9.2f} ms, rest {1e3 * (per - lcp_per):7.2f} ms; "
+            f"steps {nst}, solves {d['lcp_solves']}, fast path {d['lcp_fast_path']}, status {traj.status}"
+        )
     n = np.array([r[0] for r in rows], dtype=float)
     for label, col in (("total", 2), ("contact solve", 3)):
         y = np.array([r[col] for r in rows])

@@ -177,7 +177,11 @@ class Recorder:
         """
         # plain Python floats: numpy calls on 3-vectors cost more than the arithmetic
         c = com.tolist() if isinstance(com, np.ndarray) else [float(x) for x in com]
-        r = rot.ravel().tolist() if isinstance(rot, np.ndarray) else np.asarray(rot, dtype=float).ravel().tolist()
+        r = (
+            rot.ravel().tolist()
+            if isinstance(rot, np.ndarray)
+            else np.asarray(rot, dtype=float).ravel().tolist()
+        )
         w = omega.tolist() if isinstance(omega, np.ndarray) else [float(x) for x in omega]
         if n_contacts is not None:
             self.contacts.append(int(n_contacts))
@@ -365,7 +369,11 @@ def collision_parts(
         kind = "hull"
     if kind in ("primitive", "boxes"):
         return kind, []
-    if kind == sc["kind"] and "parts" in sc and (kind != "coacd" or coacd_threshold in (None, sc.get("threshold"))):
+    if (
+        kind == sc["kind"]
+        and "parts" in sc
+        and (kind != "coacd" or coacd_threshold in (None, sc.get("threshold")))
+    ):
         return kind, list(sc["parts"])
     if kind == "hull":
         hull = rock.mesh.convex_hull

@@ -204,7 +204,9 @@ class DartEngine(EngineBase):
             return out, f"compound of {len(out)} boxes"
         # FCL collides a MeshShape as the triangle mesh itself (non-convex allowed)
         paths = [write_obj(np.asarray(v, float) - com, f, f"dart_{kind}") for v, f in parts]
-        desc = {"hull": "convex hull mesh", "mesh": "triangle mesh (non-convex)"}.get(kind, f"{kind}, {len(paths)} parts")
+        desc = {"hull": "convex hull mesh", "mesh": "triangle mesh (non-convex)"}.get(
+            kind, f"{kind}, {len(paths)} parts"
+        )
         shapes = _load_mesh_shapes(dart, paths)
         return [(sh, np.eye(3), np.zeros(3)) for sh in shapes], desc
 

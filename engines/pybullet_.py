@@ -171,7 +171,9 @@ class PyBulletEngine(EngineBase):
     # ------------------------------------------------------------------ checks
     def _check(self, s: Mapping[str, Any]) -> None:
         def bad(key: str, expected: str) -> EngineSettingsError:
-            return EngineSettingsError(f"engine 'pybullet': setting {key!r} = {s[key]!r}; expected {expected}")
+            return EngineSettingsError(
+                f"engine 'pybullet': setting {key!r} = {s[key]!r}; expected {expected}"
+            )
 
         if s["ground_motion"] not in GROUND_MODES:
             raise bad("ground_motion", " or ".join(GROUND_MODES))
@@ -188,13 +190,17 @@ class PyBulletEngine(EngineBase):
                 raise bad(key, "'scene' or a number")
         if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
             raise bad("contact_stiffness", "to be set together with contact_damping (both or neither)")
-        if s["contact_stiffness"] is not None and not (s["contact_stiffness"] > 0 and s["contact_damping"] >= 0):
+        if s["contact_stiffness"] is not None and not (
+            s["contact_stiffness"] > 0 and s["contact_damping"] >= 0
+        ):
             raise bad("contact_stiffness", "> 0 N/m with contact_damping >= 0 N·s/m")
         if s["collision_margin"] is not None and not s["collision_margin"] >= 0:
             raise bad("collision_margin", "None or >= 0 m")
 
     # --------------------------------------------------------------- building
-    def _rock_shape(self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], rot0: np.ndarray) -> tuple[int, dict]:
+    def _rock_shape(
+        self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], rot0: np.ndarray
+    ) -> tuple[int, dict]:
         """Collision shape of the rock in the body frame (origin at the COM, axes ``rot0``)."""
         rock = scene.rock
         com = rock.com
@@ -214,7 +220,9 @@ class PyBulletEngine(EngineBase):
             return sid, {"collision": "primitive", "n_parts": 1}
         if choice == "boxes":
             if not rock.box_parts:
-                raise NotApplicable(f"pybullet: collision 'boxes' needs a rock made of boxes, got {rock.shape!r}")
+                raise NotApplicable(
+                    f"pybullet: collision 'boxes' needs a rock made of boxes, got {rock.shape!r}"
+                )
             q = _xyzw(rt @ rock.rotation)
             n = len(rock.box_parts)
             sid = p.createCollisionShapeArray(
@@ -243,7 +251,9 @@ class PyBulletEngine(EngineBase):
         )
         return sid, {"collision": choice, "n_parts": n}
 
-    def _pedestal(self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], moving: bool, axes: int) -> tuple[int, int]:
+    def _pedestal(
+        self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], moving: bool, axes: int
+    ) -> tuple[int, int]:
         """Pedestal body and the link index that carries its collision shape (−1: the base)."""
         ped = scene.pedestal
         kind = ped["kind"]
@@ -347,7 +357,10 @@ class PyBulletEngine(EngineBase):
         e_rock, e_ped = (e, 1.0) if s["restitution"] == "scene" else (e, e)
         extra: dict[str, Any] = {}
         if s["contact_stiffness"] is not None:
-            extra = {"contactStiffness": float(s["contact_stiffness"]), "contactDamping": float(s["contact_damping"])}
+            extra = {
+                "contactStiffness": float(s["contact_stiffness"]),
+                "contactDamping": float(s["contact_damping"]),
+            }
         margin = {} if s["collision_margin"] is None else {"collisionMargin": float(s["collision_margin"])}
         p.changeDynamics(
             body,

@@ -25,7 +25,9 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "wb", *, hidden: bool 
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=("." if hidden else "") + path.name + ".", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(
+        prefix=("." if hidden else "") + path.name + ".", suffix=".tmp", dir=path.parent
+    )
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh

@@ -87,7 +87,9 @@ def _settings(engine: str, extra: dict[str, Any] | None = None) -> dict[str, Any
 
 
 def _threshold(scn: Scenario, engine: str, lo: float, hi: float, settings: dict[str, Any]) -> float:
-    res = find_threshold(scn, engine, lo=lo, hi=hi, n_grid=3, rel_tol=2e-4, settings=settings, all_transitions=False)
+    res = find_threshold(
+        scn, engine, lo=lo, hi=hi, n_grid=3, rel_tol=2e-4, settings=settings, all_transitions=False
+    )
     if res.minimum is None:
         raise AssertionError(f"{engine}: never toppled in [{lo}, {hi}]")
     if res.grid_toppled[0]:
@@ -204,8 +206,14 @@ def check_notched_block(engine: str) -> dict[str, Any]:
 def check_notched_rebound(engine: str) -> dict[str, Any]:
     """Notched block free rocking (dt = 1e-4): first two rebound ratios within 0.005 of the
     two-pivot value 1 − m R²(1 − cos 2α)/I_O (0.8665, from exact mass properties)."""
-    scene = compile_scene(notched_scenario(name="conformance_notched_free", duration=3.0,
-                                           excitation={"type": "none"}, initial={"theta_over_alpha": 0.5}))
+    scene = compile_scene(
+        notched_scenario(
+            name="conformance_notched_free",
+            duration=3.0,
+            excitation={"type": "none"},
+            initial={"theta_over_alpha": 0.5},
+        )
+    )
     from pbr_xval.analytical.rocking import TwoPivotBody
 
     pm = scene.planar_model()
@@ -221,15 +229,20 @@ def check_notched_rebound(engine: str) -> dict[str, Any]:
 
 def check_ground_modes(engine: str) -> dict[str, Any]:
     """Inertial load and moving pedestal agree: peak |θ| at a = 5.6 m/s² within 1 %."""
-    scene = compile_scene(housner_scenario(excitation={
-        "type": "half_sine", "amplitude": 5.6, "frequency": 1.0, "phase": "housner_uplift"}))
+    scene = compile_scene(
+        housner_scenario(
+            excitation={"type": "half_sine", "amplitude": 5.6, "frequency": 1.0, "phase": "housner_uplift"}
+        )
+    )
     peaks = {}
     for mode in ("inertial", "moving_pedestal"):
         traj = run_scene(scene, engine, _settings(engine, {"ground_motion": mode}))
         assert traj.ok, traj.message
         peaks[mode] = float(np.max(np.abs(traj.rocking_angle())))
     rel = peaks["moving_pedestal"] / peaks["inertial"] - 1
-    assert abs(rel) <= 1e-2, f"{engine}: peak θ inertial {peaks['inertial']:.5f} vs moving {peaks['moving_pedestal']:.5f}"
+    assert abs(rel) <= 1e-2, (
+        f"{engine}: peak θ inertial {peaks['inertial']:.5f} vs moving {peaks['moving_pedestal']:.5f}"
+    )
     return {"peak_theta": peaks, "rel_diff": rel}
 
 

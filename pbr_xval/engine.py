@@ -516,9 +516,7 @@ def get_engine(name: str | type | Engine) -> Engine:
         hint = ""
         if name in KNOWN_ENGINES:
             hint = f" Install it with: pip install {KNOWN_ENGINES[name]}"
-        raise EngineNotAvailable(
-            f"unknown engine {name!r}; registered engines: {sorted(eps)}.{hint}"
-        )
+        raise EngineNotAvailable(f"unknown engine {name!r}; registered engines: {sorted(eps)}.{hint}")
     module, _, attr = eps[name].partition(":")
     try:
         cls = getattr(importlib.import_module(module), attr)

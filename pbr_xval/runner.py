@@ -37,6 +37,8 @@ def run_scene(scene: Scene, engine: str | Engine, settings: Mapping[str, Any] | 
     return traj
 
 
-def run_scenario(scn: Scenario, engine: str | Engine, settings: Mapping[str, Any] | None = None) -> Trajectory:
+def run_scenario(
+    scn: Scenario, engine: str | Engine, settings: Mapping[str, Any] | None = None
+) -> Trajectory:
     """Compile and simulate."""
     return run_scene(compile_scene(scn), engine, settings)

@@ -235,7 +235,13 @@ class RecordMotion(_MotionBase):
 
 Motion = Annotated[
     Union[  # noqa: UP007
-        HalfSineMotion, SawtoothMotion, OneSineMotion, OneCosineMotion, RectangularMotion, RickerMotion, RecordMotion
+        HalfSineMotion,
+        SawtoothMotion,
+        OneSineMotion,
+        OneCosineMotion,
+        RectangularMotion,
+        RickerMotion,
+        RecordMotion,
     ],
     Field(discriminator="type"),
 ]
@@ -247,9 +253,7 @@ class _Shaking(Strict):
 
 
 def _excitation_class(motion_cls: type[BaseModel]) -> type[BaseModel]:
-    return types.new_class(
-        motion_cls.__name__.replace("Motion", "Excitation"), (motion_cls, _Shaking), {}
-    )
+    return types.new_class(motion_cls.__name__.replace("Motion", "Excitation"), (motion_cls, _Shaking), {})
 
 
 HalfSineExcitation = _excitation_class(HalfSineMotion)

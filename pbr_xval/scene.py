@@ -293,7 +293,9 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
 
     rock = scn.rock
     yaw = math.radians(rock.yaw_deg)
-    rz = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    rz = np.array(
+        [[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]]
+    )
     primitive = None
     box_parts = None
     info: dict[str, Any] = {}
@@ -302,7 +304,9 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
         primitive = {"type": "box", "half_extents": list(rock.half_extents)}
     elif isinstance(rock, sc.NotchedBlockRock):
         mesh = shapes.notched_block_mesh(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
-        box_parts = shapes.notched_block_boxes(np.array(rock.half_extents), rock.notch_width, rock.notch_height)
+        box_parts = shapes.notched_block_boxes(
+            np.array(rock.half_extents), rock.notch_width, rock.notch_height
+        )
     elif isinstance(rock, sc.CurvedBaseRock):
         mesh = shapes.curved_base_mesh(rock.H, rock.r, rock.h, rock.depth, rock.arc_segments)
         reductions.append(
@@ -315,7 +319,9 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
     elif isinstance(rock, sc.MeshRock):
         from pbr_xval.geometry.mesh import load_rock_mesh
 
-        mesh, info = load_rock_mesh(scn.resolve_path(rock.path), units=rock.units, orientation=rock.orientation)
+        mesh, info = load_rock_mesh(
+            scn.resolve_path(rock.path), units=rock.units, orientation=rock.orientation
+        )
     else:  # pragma: no cover - the union is closed
         raise TypeError(type(rock))
 
@@ -325,7 +331,9 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
             box_parts = [(rz @ c, h) for c, h in box_parts]
     volume = float(mesh.volume)
     if not (volume > 0):
-        raise sc.ScenarioError(f"scenario {scn.name!r}: key 'rock': the rock mesh has volume {volume} m³ (expected > 0)")
+        raise sc.ScenarioError(
+            f"scenario {scn.name!r}: key 'rock': the rock mesh has volume {volume} m³ (expected > 0)"
+        )
     density = rock.density if rock.density is not None else rock.mass / volume
     mesh.density = density
     mp = mesh.mass_properties
@@ -395,7 +403,9 @@ def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[s
         cell = opt.decimate_cell or size / 20
         band = opt.basal_band or 0.02 * float(np.ptp(rock.mesh.vertices[:, 2]))
         dec = decimate_keep_base(rock.mesh, cell, band)
-        out.update(parts=[(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))], cell=cell, band=band)
+        out.update(
+            parts=[(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))], cell=cell, band=band
+        )
         why += f"; {len(rock.mesh.faces)} → {len(dec.faces)} faces, cell {cell:.3g} m, base band {band:.3g} m kept"
     elif kind == "hull":
         hull = rock.mesh.convex_hull
@@ -412,7 +422,9 @@ def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
     if t == "half_sine":
         if spec.phase == "housner_uplift":
             if uplift is None:
-                raise sc.ScenarioError(f"scenario {scn.name!r}: 'housner_uplift' phase is only for horizontal motion")
+                raise sc.ScenarioError(
+                    f"scenario {scn.name!r}: 'housner_uplift' phase is only for horizontal motion"
+                )
             m: GroundMotion = pulses.HalfSine.housner(spec.amplitude, uplift, spec.frequency)
         else:
             m = pulses.HalfSine(spec.amplitude, spec.frequency, spec.phase)
@@ -469,13 +481,17 @@ def compile_scene(scn: sc.Scenario) -> Scene:
         covers = bool(np.all(np.abs(foot) <= np.asarray(ped.half_extents[:2]) - 1e-9))
         if scn.model.pedestal == "plane" or (scn.model.pedestal == "auto" and covers):
             pedestal = {"kind": "plane", "from": "box"}
-            reductions.append({
-                "what": "pedestal",
-                "choice": "plane",
-                "why": "the box pedestal's top face extends beyond the rock's footprint: only that face can be touched",
-            })
+            reductions.append(
+                {
+                    "what": "pedestal",
+                    "choice": "plane",
+                    "why": "the box pedestal's top face extends beyond the rock's footprint: only that face can be touched",
+                }
+            )
         else:
-            reductions.append({"what": "pedestal", "choice": "box", "why": "the rock overhangs the pedestal's edge"})
+            reductions.append(
+                {"what": "pedestal", "choice": "box", "why": "the rock overhangs the pedestal's edge"}
+            )
     else:
         from pbr_xval.geometry.mesh import load_mesh
 
@@ -493,16 +509,21 @@ def compile_scene(scn: sc.Scenario) -> Scene:
 
     count = None if scn.model.basal_nodes == "auto" else int(scn.model.basal_nodes)
     nodes = basal_nodes(rock.mesh.vertices, rock.com, count, scn.model.basal_band)
-    reductions.append({
-        "what": "basal nodes (reference solver)",
-        "choice": f"{len(nodes)} nodes",
-        "why": "convex-hull vertices below the COM" if count is None else f"support polygon filled with ~{count} nodes",
-    })
+    reductions.append(
+        {
+            "what": "basal nodes (reference solver)",
+            "choice": f"{len(nodes)} nodes",
+            "why": "convex-hull vertices below the COM"
+            if count is None
+            else f"support polygon filled with ~{count} nodes",
+        }
+    )
 
     theta0 = scn.initial.theta
     if scn.initial.theta_over_alpha is not None:
-        a_left, a_right = critical_tilt(rock.mesh.vertices, rock.com, -direction), critical_tilt(
-            rock.mesh.vertices, rock.com, direction
+        a_left, a_right = (
+            critical_tilt(rock.mesh.vertices, rock.com, -direction),
+            critical_tilt(rock.mesh.vertices, rock.com, direction),
         )
         f = scn.initial.theta_over_alpha
         theta0 = f * (a_right if f >= 0 else a_left)

@@ -103,11 +103,13 @@ BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 _NXY = np.array([2, 0, 1])
 _XYZ = np.array([1, 2, 0])
 #: r @ _CANG = [r × n, r × x, r × y] (k, 9) for n = ez, x = ex, y = ey
-_CANG = np.hstack([
-    np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-    np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
-    np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
-])
+_CANG = np.hstack(
+    [
+        np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
+        np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
+        np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+    ]
+)
 
 
 _ZERO3 = np.zeros(3)
@@ -366,11 +368,14 @@ class Stepper:
         self._lin_cache: dict[int, np.ndarray] = {}
         # angular-momentum scale per unit COM speed: λ_max(I') / (largest node lever arm)
         self._lref = float(np.linalg.eigvalsh(body.inertia).max()) / max(
-            float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
+            float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300
+        )
         self._last: tuple | None = None
         self._kin_cache: tuple | None = None  # (state, t, node_kinematics(state, t))
         self._lin_m: dict[int, np.ndarray] = {}  # k -> _lin_block(k) / m
-        self._pred: tuple | None = None  # (t1, Δt, F0, τ0, contact ids) for the predictor  # (t1, contact ids, slide flags, F1, τ1, load) of the last step
+        self._pred: tuple | None = (
+            None  # (t1, Δt, F0, τ0, contact ids) for the predictor  # (t1, contact ids, slide flags, F1, τ1, load) of the last step
+        )
 
     # ------------------------------------------------------------------ kinematics
     def omega(self, s: State) -> np.ndarray:
@@ -638,7 +643,7 @@ class Stepper:
             j = np.zeros(3 * k)
         # eq. 3.5 on the normal impulses, tangential impulses held fixed; selection among the
         # (for e = 0 and redundant contacts) non-unique solutions
-        qn = q[0::3] + A[0::3][:, np.r_[1:3 * k:3, 2:3 * k:3]] @ np.concatenate([j[1::3], j[2::3]])
+        qn = q[0::3] + A[0::3][:, np.r_[1 : 3 * k : 3, 2 : 3 * k : 3]] @ np.concatenate([j[1::3], j[2::3]])
         ref = prev[0::3] if self.selection == "closest_to_previous" else None
         resn = lcp.solve_lcp_min_norm(A[0::3, 0::3], qn, reference=ref, method=self.method)
         self.stats.lcp_pivots += resn.pivots
@@ -702,8 +707,14 @@ class Stepper:
         stab[:, 0] = np.minimum(vv[:, 0], 0.0) / dt
         if any_slide:
             stab[slide, 1:] = 0.0
-        return _Contacts(idx=idx, slide=slide, sdir=sdir, stab=stab.reshape(-1), nodes=self.body.nodes[idx],
-                         any_slide=any_slide)
+        return _Contacts(
+            idx=idx,
+            slide=slide,
+            sdir=sdir,
+            stab=stab.reshape(-1),
+            nodes=self.body.nodes[idx],
+            any_slide=any_slide,
+        )
 
     def step(self, s0: State, t0: float, dt: float) -> tuple[State, int]:
         """Constant-average-acceleration step t0 → t0 + dt with direct iteration.
@@ -727,7 +738,10 @@ class Stepper:
             and _same(last[1], c.idx)
             and _same(last[2], c.slide)
             # np.allclose(load, previous load, rtol=1e-9, atol=1e-12) on plain floats
-            and all(abs(x - y) <= 1e-12 + 1e-9 * abs(y) for x, y in zip(self._load(tl0).tolist(), last[5].tolist(), strict=True))
+            and all(
+                abs(x - y) <= 1e-12 + 1e-9 * abs(y)
+                for x, y in zip(self._load(tl0).tolist(), last[5].tolist(), strict=True)
+            )
         )
         if reuse:
             # the end-of-step forces of the previous step, at the same state and time
@@ -793,4 +807,3 @@ class Stepper:
         d, _, _ = self.ped.motion(t)
         g = self.ped.gaps(s.x + r, d)
         return max(0.0, -float(np.min(g)))
-

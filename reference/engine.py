@@ -72,7 +72,9 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
     return pts[order][:nmax]
 
 
-def _step_starts(t: float, n: int, *, bps: list[float], dt_nom: float, duration: float) -> list[tuple[float, float]]:
+def _step_starts(
+    t: float, n: int, *, bps: list[float], dt_nom: float, duration: float
+) -> list[tuple[float, float]]:
     """(t0, Δt) of the next ``n`` steps from t without step-backs: the engine's own time
     arithmetic (steps of Δt ending on the excitation breakpoints), replayed."""
     out = []
@@ -175,14 +177,18 @@ class ReferenceEngine(EngineBase):
 
         s = self.resolve_settings(settings)
         if s["lcp_method"] not in ("dantzig", "lemke"):
-            raise EngineSettingsError(f"engine 'reference': lcp_method {s['lcp_method']!r}; expected dantzig or lemke")
+            raise EngineSettingsError(
+                f"engine 'reference': lcp_method {s['lcp_method']!r}; expected dantzig or lemke"
+            )
         if s["impact_selection"] not in ("closest_to_previous", "min_norm"):
             raise EngineSettingsError(
                 f"engine 'reference': impact_selection {s['impact_selection']!r}; expected closest_to_previous or min_norm"
             )
         mode = s["ground_motion"]
         if mode not in ("inertial", "moving_pedestal"):
-            raise EngineSettingsError(f"engine 'reference': ground_motion {mode!r}; expected inertial or moving_pedestal")
+            raise EngineSettingsError(
+                f"engine 'reference': ground_motion {mode!r}; expected inertial or moving_pedestal"
+            )
         if scene.rock.shape not in self.capabilities.shapes:
             raise NotApplicable(f"reference: rock shape {scene.rock.shape!r} is not supported")
         ped = scene.pedestal
@@ -191,12 +197,15 @@ class ReferenceEngine(EngineBase):
         elif ped["kind"] == "box":
             pedestal = Pedestal("box", np.asarray(ped["half_extents"], dtype=float))
         else:
-            raise NotApplicable("reference: mesh pedestals need node-vs-triangle contact, which is not implemented")
+            raise NotApplicable(
+                "reference: mesh pedestals need node-vs-triangle contact, which is not implemented"
+            )
 
         exc = scene.excitation
         g = float(scene.gravity)
         gvec = np.array([0.0, 0.0, -g])
         if mode == "inertial":
+
             def load_direct(t: float) -> np.ndarray:
                 return gvec - np.asarray(exc.acceleration(t), dtype=float)
 
@@ -205,6 +214,7 @@ class ReferenceEngine(EngineBase):
 
             load = _StepLoad(load_direct, load_many)
         else:
+
             def load(t: float) -> np.ndarray:
                 return gvec
 
@@ -243,8 +253,14 @@ class ReferenceEngine(EngineBase):
         if isinstance(load, _StepLoad):
             load.plan = functools.partial(_step_starts, bps=bps, dt_nom=dt_nom, duration=duration)
         try:
-            stop = rec.record(0.0, self._rel_com(state, pedestal, 0.0), state.R, stepper.omega(state),
-                              penetration=stepper.penetration(state, 0.0), force=True)
+            stop = rec.record(
+                0.0,
+                self._rel_com(state, pedestal, 0.0),
+                state.R,
+                stepper.omega(state),
+                penetration=stepper.penetration(state, 0.0),
+                force=True,
+            )
             next_out = float(scene.output_dt)
             bp_i = 0
             max_back = int(s["max_stepbacks"])
@@ -290,19 +306,42 @@ class ReferenceEngine(EngineBase):
                 last = t >= duration - 1e-12 * dt_nom
                 # the Recorder (toppling criterion, NaN/explosion, sampling) is consulted at
                 # every output time and at every step once the rock is near toppling
-                if last or t >= next_out - 1e-9 * dt_nom or guard(com_rel, state.R) or not np.isfinite(state.x).all():
+                if (
+                    last
+                    or t >= next_out - 1e-9 * dt_nom
+                    or guard(com_rel, state.R)
+                    or not np.isfinite(state.x).all()
+                ):
                     while next_out <= t + 1e-9 * dt_nom:
                         next_out += float(scene.output_dt)
-                    stop = rec.record(t, com_rel, state.R, stepper.omega(state),
-                                      n_contacts=int(np.sum(gaps <= stepper.eps)), penetration=pen, force=last)
-                if not stop and rest_v > 0 and t >= t_exc_end and self._at_rest(stepper, state, size, dt_nom, rest_v):
+                    stop = rec.record(
+                        t,
+                        com_rel,
+                        state.R,
+                        stepper.omega(state),
+                        n_contacts=int(np.sum(gaps <= stepper.eps)),
+                        penetration=pen,
+                        force=last,
+                    )
+                if (
+                    not stop
+                    and rest_v > 0
+                    and t >= t_exc_end
+                    and self._at_rest(stepper, state, size, dt_nom, rest_v)
+                ):
                     held_from = t
                     tt = t
                     while not stop and tt < duration - 1e-12 * dt_nom:
                         tt = min(tt + float(scene.output_dt), duration)
-                        stop = rec.record(tt, self._rel_com(state, pedestal, tt), state.R, stepper.omega(state),
-                                          n_contacts=int(np.sum(gaps <= stepper.eps)), penetration=pen,
-                                          force=tt >= duration - 1e-12 * dt_nom)
+                        stop = rec.record(
+                            tt,
+                            self._rel_com(state, pedestal, tt),
+                            state.R,
+                            stepper.omega(state),
+                            n_contacts=int(np.sum(gaps <= stepper.eps)),
+                            penetration=pen,
+                            force=tt >= duration - 1e-12 * dt_nom,
+                        )
                     t = tt
                     break
         except Exception as exc_:  # never raise from inside the stepping

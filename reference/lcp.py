@@ -211,8 +211,14 @@ def _finish(
     z = np.where((z < 0) & (z >= -vt), 0.0, z)
     w = M @ z + q
     res = LCPResult(
-        z=z, w=w, pivots=pivots, status=status, method=method, message=message,
-        pivots_by_method={method: pivots}, clamped=np.asarray(clamped, dtype=int),
+        z=z,
+        w=w,
+        pivots=pivots,
+        status=status,
+        method=method,
+        message=message,
+        pivots_by_method={method: pivots},
+        clamped=np.asarray(clamped, dtype=int),
     )
     if status == "ok":
         vt = _verify_tol(M, q, z)
@@ -229,7 +235,11 @@ def _finish(
 
 def _trivial(M: np.ndarray, q: np.ndarray, method: str) -> LCPResult:
     return LCPResult(
-        z=np.zeros(q.size), w=q.copy(), pivots=0, status="ok", method=method,
+        z=np.zeros(q.size),
+        w=q.copy(),
+        pivots=0,
+        status="ok",
+        method=method,
         pivots_by_method={method: 0},
     )
 
@@ -237,9 +247,7 @@ def _trivial(M: np.ndarray, q: np.ndarray, method: str) -> LCPResult:
 # --------------------------------------------------------------------------------------
 # Lemke
 # --------------------------------------------------------------------------------------
-def lemke(
-    M: np.ndarray, q: np.ndarray, *, max_pivots: int | None = None, tol: float = 1e-12
-) -> LCPResult:
+def lemke(M: np.ndarray, q: np.ndarray, *, max_pivots: int | None = None, tol: float = 1e-12) -> LCPResult:
     """Lemke's complementary pivoting algorithm with covering vector ``d = 1``.
 
     Solves ``w = M z + q, z >= 0, w >= 0, z.w = 0`` by pivoting in the augmented system
@@ -326,14 +334,19 @@ def lemke(
     clamped = np.sort(basis[(basis >= n) & (basis < 2 * n)] - n)
     if status != "ok":
         # report the current (infeasible / incomplete) point without polishing
-        return _finish(M, q, z, clamped, pivots=pivots, status=status, method="lemke",
-                       message=message)
+        return _finish(M, q, z, clamped, pivots=pivots, status=status, method="lemke", message=message)
     return _finish(M, q, z, clamped, pivots=pivots, status="ok", method="lemke")
 
 
 def _lex_min_ratio(
-    T: np.ndarray, col: np.ndarray, cand: np.ndarray, basis: np.ndarray, n: int, rhs: int,
-    z0: int, tol: float,
+    T: np.ndarray,
+    col: np.ndarray,
+    cand: np.ndarray,
+    basis: np.ndarray,
+    n: int,
+    rhs: int,
+    z0: int,
+    tol: float,
 ) -> int:
     """Lexicographic minimum-ratio test over rows ``cand`` of the Lemke tableau.
 
@@ -520,8 +533,10 @@ def dantzig(
             all_s = np.maximum(np.concatenate(steps), 0.0) if steps else np.zeros(0)
             if all_idx.size == 0:
                 status = "infeasible"
-                message = (f"unbounded driving direction for index {d}: no solution "
-                           "(conclusive for PSD / P-matrices only)")
+                message = (
+                    f"unbounded driving direction for index {d}: no solution "
+                    "(conclusive for PSD / P-matrices only)"
+                )
                 break
             smin = float(all_s.min())
             tie = all_idx[all_s <= smin + tol * max(1.0, smin)]
@@ -544,8 +559,9 @@ def dantzig(
             if j == d:
                 break
     clamped = np.flatnonzero(state == CLAMP)
-    return _finish(M, q, z, clamped, pivots=pivots, status=status, method=method,
-                   message=message, rcond=rcond)
+    return _finish(
+        M, q, z, clamped, pivots=pivots, status=status, method=method, message=message, rcond=rcond
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -603,8 +619,9 @@ def solve_lcp(
         if select not in ("closest", "min_norm"):
             raise ValueError(f"unknown select {select!r}")
         ref = None if select == "min_norm" else reference
-        return solve_lcp_min_norm(M, q, reference=ref, method=method, tol=tol,
-                                  max_pivots=max_pivots, warm_start=warm_start)
+        return solve_lcp_min_norm(
+            M, q, reference=ref, method=method, tol=tol, max_pivots=max_pivots, warm_start=warm_start
+        )
     kwargs: dict = {"max_pivots": max_pivots, "tol": tol}
     if method == "dantzig" and warm_start is not None:
         ws = np.asarray(warm_start, dtype=float).reshape(-1)
@@ -703,8 +720,12 @@ def solve_lcp_min_norm(
     z_scale = float(np.max(np.abs(base.z)))
     S = np.flatnonzero(base.w <= support_rtol * max(q_scale, m_scale * z_scale, 1e-300))
     out = LCPResult(
-        z=base.z.copy(), w=base.w.copy(), pivots=base.pivots, status="ok",
-        method=base.method + "+closest", pivots_by_method=dict(base.pivots_by_method),
+        z=base.z.copy(),
+        w=base.w.copy(),
+        pivots=base.pivots,
+        status="ok",
+        method=base.method + "+closest",
+        pivots_by_method=dict(base.pivots_by_method),
         clamped=base.clamped,
     )
     out.pivots_by_method["closest"] = 0
@@ -823,8 +844,14 @@ def friction_residuals(f: np.ndarray, a: np.ndarray, mu: np.ndarray) -> dict[str
     F = f.reshape(-1, 3)
     Acc = a.reshape(-1, 3)
     if F.shape[0] == 0:
-        keys = ("signorini_f", "signorini_a", "complementarity", "cone",
-                "friction_complementarity", "dissipation")
+        keys = (
+            "signorini_f",
+            "signorini_a",
+            "complementarity",
+            "cone",
+            "friction_complementarity",
+            "dissipation",
+        )
         return dict.fromkeys(keys, 0.0)
     fn, ft = F[:, 0], F[:, 1:]
     an, at = Acc[:, 0], Acc[:, 1:]
@@ -904,8 +931,11 @@ def _friction_merit(f: np.ndarray, a: np.ndarray, mu: np.ndarray, fs: float, acs
     """Largest residual of :func:`friction_residuals`, made dimensionless."""
     r = friction_residuals(f, a, mu)
     return max(
-        r["signorini_f"] / fs, r["cone"] / fs, r["signorini_a"] / acs,
-        r["complementarity"] / (fs * acs), r["friction_complementarity"] / (fs * acs),
+        r["signorini_f"] / fs,
+        r["cone"] / fs,
+        r["signorini_a"] / acs,
+        r["complementarity"] / (fs * acs),
+        r["friction_complementarity"] / (fs * acs),
         r["dissipation"] / (fs * acs),
     )
 
@@ -1067,9 +1097,15 @@ def solve_friction_cone(
         over = nt > mu_arr * F[:, 0]
         F[over, 1:] *= (mu_arr[over] * F[over, 0] / nt[over])[:, None]
     if k == 0:
-        return FrictionResult(f=f, a=b.copy(), iterations=0, converged=True,
-                              residuals=friction_residuals(f, b, mu_arr), mu=mu_arr,
-                              method="pgs_cone")
+        return FrictionResult(
+            f=f,
+            a=b.copy(),
+            iterations=0,
+            converged=True,
+            residuals=friction_residuals(f, b, mu_arr),
+            mu=mu_arr,
+            method="pgs_cone",
+        )
     a = A @ f + b
     a_scale = float(np.max(np.abs(A))) if A.size else 0.0
     force_scale = float(np.max(np.abs(b))) / a_scale if a_scale > 0 else 0.0
@@ -1098,7 +1134,9 @@ def solve_friction_cone(
             cand = _mode_polish(A, b, f, mu_arr)
             a_c = A @ cand + b
             a = A @ f + b
-            if _friction_merit(cand, a_c, mu_arr, fs, acc_scale) < _friction_merit(f, a, mu_arr, fs, acc_scale):
+            if _friction_merit(cand, a_c, mu_arr, fs, acc_scale) < _friction_merit(
+                f, a, mu_arr, fs, acc_scale
+            ):
                 f, a = cand, a_c
         max_change = 0.0
         for i in range(k):
@@ -1127,8 +1165,13 @@ def solve_friction_cone(
             break
     a = A @ f + b
     return FrictionResult(
-        f=f, a=a, iterations=it, converged=converged,
-        residuals=friction_residuals(f, a, mu_arr), mu=mu_arr, method=method,
+        f=f,
+        a=a,
+        iterations=it,
+        converged=converged,
+        residuals=friction_residuals(f, a, mu_arr),
+        mu=mu_arr,
+        method=method,
         status="ok" if converged else "max_iter",
     )
 
@@ -1205,7 +1248,12 @@ def solve_friction_pyramid(
     f = H @ res.z[:nv]
     a = A @ f + b
     return FrictionResult(
-        f=f, a=a, iterations=res.pivots, converged=res.ok,
-        residuals=friction_residuals(f, a, mu_arr), mu=mu_arr, method="lemke_pyramid",
+        f=f,
+        a=a,
+        iterations=res.pivots,
+        converged=res.ok,
+        residuals=friction_residuals(f, a, mu_arr),
+        mu=mu_arr,
+        method="lemke_pyramid",
         status=res.status,
     )

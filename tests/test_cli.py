@@ -35,8 +35,18 @@ def test_check_reports_bad_file(tmp_path: Path) -> None:
 )
 def test_threshold_variants(tmp_path: Path, variant: str, expected: float, tol: float) -> None:
     out = tmp_path / "t.json"
-    args = ["threshold", HOUSNER, "--engine", "housner", "--set", f"variant={variant}", "--hi", "12",
-            "--json", str(out)]
+    args = [
+        "threshold",
+        HOUSNER,
+        "--engine",
+        "housner",
+        "--set",
+        f"variant={variant}",
+        "--hi",
+        "12",
+        "--json",
+        str(out),
+    ]
     res = runner.invoke(app, args)
     assert res.exit_code == 0, res.output
     data = json.loads(out.read_text())

@@ -96,8 +96,10 @@ def test_rocking_angle_sign_convention() -> None:
     # the COM moves toward -x with it
     assert traj.com[np.argmin(theta), 0] < 0
     # azimuth 90 degrees: the same motion along y
-    scn = housner_scenario(duration=1.0, excitation={
-        "type": "half_sine", "amplitude": 5.0, "phase": "housner_uplift", "azimuth_deg": 90.0})
+    scn = housner_scenario(
+        duration=1.0,
+        excitation={"type": "half_sine", "amplitude": 5.0, "phase": "housner_uplift", "azimuth_deg": 90.0},
+    )
     t90 = run_scenario(scn, "housner")
     assert np.allclose(t90.rocking_angle(), theta, atol=1e-12)
     assert np.allclose(t90.com[:, 1], traj.com[:, 0], atol=1e-12)

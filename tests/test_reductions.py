@@ -23,7 +23,10 @@ def test_auto_choices_are_recorded() -> None:
     notched = compile_scene(notched_scenario())
     assert _choices(notched)["rock collision"] == "boxes"
     ped = compile_scene(housner_scenario(pedestal={"kind": "box", "half_extents": [2.0, 2.0, 0.5]}))
-    assert ped.pedestal["kind"] == "plane" and "footprint" in next(r for r in ped.reductions if r["what"] == "pedestal")["why"]
+    assert (
+        ped.pedestal["kind"] == "plane"
+        and "footprint" in next(r for r in ped.reductions if r["what"] == "pedestal")["why"]
+    )
     over = compile_scene(housner_scenario(pedestal={"kind": "box", "half_extents": [0.1, 2.0, 0.5]}))
     assert over.pedestal["kind"] == "box"
 
@@ -43,10 +46,21 @@ def test_coacd_and_decimated_choices_record_what_they_cost() -> None:
     assert scene.collision["kind"] == "coacd" and len(scene.collision["parts"]) == 3
     assert "volume error" in rec["why"]
     assert abs(scene.collision["report"]["rel_volume_error"]) < 1e-3
-    dec = compile_scene(housner_scenario(rock={"shape": "curved_base", "H": 1.5, "r": 0.3, "h": 0.4,
-                                               "depth": 0.4, "density": 2400.0, "arc_segments": 64},
-                                         model={"collision": "decimated"}))
-    (v, f), = dec.collision["parts"]
+    dec = compile_scene(
+        housner_scenario(
+            rock={
+                "shape": "curved_base",
+                "H": 1.5,
+                "r": 0.3,
+                "h": 0.4,
+                "depth": 0.4,
+                "density": 2400.0,
+                "arc_segments": 64,
+            },
+            model={"collision": "decimated"},
+        )
+    )
+    ((v, f),) = dec.collision["parts"]
     assert len(f) < len(dec.rock.mesh.faces)
     base = dec.rock.mesh.vertices[dec.rock.mesh.vertices[:, 2] <= 1e-9]
     kept = v[v[:, 2] <= 1e-9]
@@ -72,8 +86,9 @@ def test_reductions_leave_conformance_results_unchanged(engine: str) -> None:
     settings = {"timestep": 1e-3} if engine != "housner" else {}
 
     def thr(scn, lo, hi):
-        return find_threshold(scn, engine, lo=lo, hi=hi, n_grid=3, rel_tol=2e-4, settings=settings,
-                              all_transitions=False).minimum
+        return find_threshold(
+            scn, engine, lo=lo, hi=hi, n_grid=3, rel_tol=2e-4, settings=settings, all_transitions=False
+        ).minimum
 
     boxes = thr(notched_scenario(), 5.0, 5.25)
     coacd = thr(notched_scenario(model={"collision": "coacd"}), 5.0, 5.25)

@@ -70,14 +70,29 @@ def test_hash_covers_referenced_files(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("edit", "key", "expect"),
     [
-        (lambda s: s.replace("density = 2400.0", "density = 2400.0\ncolour = 'red'"), "rock.colour", "unknown key"),
+        (
+            lambda s: s.replace("density = 2400.0", "density = 2400.0\ncolour = 'red'"),
+            "rock.colour",
+            "unknown key",
+        ),
         (lambda s: s.replace("density = 2400.0", "mass = -5.0"), "rock.mass", "greater than 0"),
-        (lambda s: s + "\n[contact]\nfriction_static = -1.0\n", "contact.friction_static", "greater than or equal to 0"),
+        (
+            lambda s: s + "\n[contact]\nfriction_static = -1.0\n",
+            "contact.friction_static",
+            "greater than or equal to 0",
+        ),
         (lambda s: s.replace("amplitude = 5.0\n", ""), "excitation.amplitude", "missing"),
         (lambda s: s.replace('type = "half_sine"', 'type = "half_cosine"'), "excitation", "half_sine"),
         (lambda s: s.replace("duration = 2.0", "duration = 'long'"), "duration", "valid number"),
     ],
-    ids=["unknown-key", "negative-mass", "negative-friction", "pulse-without-amplitude", "unknown-pulse", "bad-type"],
+    ids=[
+        "unknown-key",
+        "negative-mass",
+        "negative-friction",
+        "pulse-without-amplitude",
+        "unknown-pulse",
+        "bad-type",
+    ],
 )
 def test_bad_input_names_file_key_and_expectation(tmp_path: Path, edit, key: str, expect: str) -> None:
     path = write(tmp_path, edit(BASE), "bad.toml")
@@ -96,7 +111,9 @@ def test_unknown_key_lists_expected_keys(tmp_path: Path) -> None:
 
 
 def test_missing_mesh_file(tmp_path: Path) -> None:
-    text = BASE.replace('shape = "box"\nhalf_extents = [0.2, 0.2, 0.6]', 'shape = "mesh"\npath = "nowhere.obj"')
+    text = BASE.replace(
+        'shape = "box"\nhalf_extents = [0.2, 0.2, 0.6]', 'shape = "mesh"\npath = "nowhere.obj"'
+    )
     with pytest.raises(ScenarioError, match=r"rock\.path.*file not found.*nowhere\.obj"):
         load_scenario(write(tmp_path, text, "m.toml"))
 

@@ -163,7 +163,9 @@ class CurvedBaseLamina:
         """Moment of inertia about the contact point, I_G + m|r_G − r_C|² (kg·m²)."""
         psi = np.abs(np.asarray(theta, dtype=float))
         c, r, d = 0.5 * self.h, self.r, self.d
-        return self.I_G + self.mass * (c * c + d * d + r * r + 2 * r * c * np.sin(psi) + 2 * r * d * np.cos(psi))
+        return self.I_G + self.mass * (
+            c * c + d * d + r * r + 2 * r * c * np.sin(psi) + 2 * r * d * np.cos(psi)
+        )
 
     def outline(self, n: int = 32, *, closed: bool = True) -> np.ndarray:
         """Counter-clockwise profile polygon in the body frame (x, z) (m), shape (k, 2).
@@ -192,7 +194,12 @@ class CurvedBaseLamina:
 
 
 def curved_base_rhs(
-    body: CurvedBaseLamina, theta: float, omega: float, a_g: float, g_eff: float = 9.81, side: int | None = None
+    body: CurvedBaseLamina,
+    theta: float,
+    omega: float,
+    a_g: float,
+    g_eff: float = 9.81,
+    side: int | None = None,
 ) -> float:
     """Angular acceleration θ̈ (rad/s²) while rolling on one arc.
 
@@ -318,25 +325,52 @@ def simulate_curved_base(
         sp, cp = math.sin(psi), math.cos(psi)
         J = q + m * (2 * r * c * sp + 2 * r * d * cp)
         dJ = m * (2 * r * c * cp - 2 * r * d * sp)
-        psi_dd = (-0.5 * dJ * om * om - m * (g + a_v(t)) * (c * cp - d * sp) - m * accel(t) * s * (r + c * sp + d * cp)) / J
+        psi_dd = (
+            -0.5 * dJ * om * om
+            - m * (g + a_v(t)) * (c * cp - d * sp)
+            - m * accel(t) * s * (r + c * sp + d * cp)
+        ) / J
         return s * psi_dd
 
     def margin(t: float, s: int) -> float:
         return -s * accel(t) - (g + a_v(t)) * thr
 
     model = HybridModel(
-        rhs=rhs, uplift_margin=margin, ratio=lambda _s: ratio, topple_angle=lambda _s: th_top,
+        rhs=rhs,
+        uplift_margin=margin,
+        ratio=lambda _s: ratio,
+        topple_angle=lambda _s: th_top,
         norm_angle=lambda _s: norm,
     )
     res = _integrate_hybrid(
-        model, t_end, breakpoints=breakpoints, theta0=theta0, omega0=omega0, rtol=rtol, atol=atol,
-        max_step=max_step, dense_dt=dense_dt, omega_rest=omega_rest, zeno_dt=zeno_dt, max_impacts=max_impacts,
+        model,
+        t_end,
+        breakpoints=breakpoints,
+        theta0=theta0,
+        omega0=omega0,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        dense_dt=dense_dt,
+        omega_rest=omega_rest,
+        zeno_dt=zeno_dt,
+        max_impacts=max_impacts,
     )
     x = body.x_com(res.theta)
     z = body.z_com(res.theta)
     peak = clamp if res.toppled else min(float(np.max(np.abs(x))) if x.size else 0.0, clamp)
     return CurvedBaseSolution(
-        t=res.t, theta=res.theta, omega=res.omega, events=res.events, toppled=res.toppled,
-        toppled_at=res.toppled_at, peak_theta_ratio=res.peak_theta_ratio, n_impacts=res.n_impacts,
-        rhs_evals=res.rhs_evals, peaks=res.peaks, x_com=x, z_com=z, peak_com_disp=peak,
+        t=res.t,
+        theta=res.theta,
+        omega=res.omega,
+        events=res.events,
+        toppled=res.toppled,
+        toppled_at=res.toppled_at,
+        peak_theta_ratio=res.peak_theta_ratio,
+        n_impacts=res.n_impacts,
+        rhs_evals=res.rhs_evals,
+        peaks=res.peaks,
+        x_com=x,
+        z_com=z,
+        peak_com_disp=peak,
     )

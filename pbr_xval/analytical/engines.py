@@ -31,7 +31,9 @@ __all__ = ["CurvedBaseEngine", "HousnerEngine"]
 
 
 def _events(raw: list[dict[str, Any]]) -> list[Event]:
-    return [Event(e["kind"], float(e["t"]), {k: v for k, v in e.items() if k not in ("kind", "t")}) for e in raw]
+    return [
+        Event(e["kind"], float(e["t"]), {k: v for k, v in e.items() if k not in ("kind", "t")}) for e in raw
+    ]
 
 
 def _scipy_version() -> str:
@@ -88,7 +90,9 @@ class HousnerEngine(EngineBase):
         s = self.resolve_settings(settings)
         variant = s["variant"]
         if variant not in ("exact", "linearized", "housner1963"):
-            raise NotApplicable(f"housner: unknown variant {variant!r}; expected exact, linearized or housner1963")
+            raise NotApplicable(
+                f"housner: unknown variant {variant!r}; expected exact, linearized or housner1963"
+            )
         if scene.rock.shape not in self.capabilities.shapes:
             raise NotApplicable(f"housner: rock shape {scene.rock.shape!r} is not a two-pivot body")
         if scene.restitution != 0.0:
@@ -137,16 +141,21 @@ class HousnerEngine(EngineBase):
         if variant == "housner1963":
             h = scene.excitation.horizontal
             if not isinstance(h, HalfSine) or scene.excitation.vertical is not None:
-                raise NotApplicable("housner1963: Housner's closed form exists only for a horizontal half-sine pulse")
+                raise NotApplicable(
+                    "housner1963: Housner's closed form exists only for a horizontal half-sine pulse"
+                )
             # a positive pulse tips the block toward -d: the left pivot
-            a_crit = housner1963_halfsine(body.alpha("left"), body.p("left", scene.gravity), 2 * math.pi * h.frequency,
-                                          scene.gravity)
+            a_crit = housner1963_halfsine(
+                body.alpha("left"), body.p("left", scene.gravity), 2 * math.pi * h.frequency, scene.gravity
+            )
             diagnostics["closed_form_threshold"] = a_crit
             diagnostics["linearized_toppled"] = sol.toppled
             events = [e for e in events if e.kind != "toppled"]
             if h.amplitude >= a_crit:
                 t_end_pulse = float(h.duration)
-                events.append(Event("toppled", t_end_pulse, {"rule": "Housner 1963: θ = α at the end of the pulse"}))
+                events.append(
+                    Event("toppled", t_end_pulse, {"rule": "Housner 1963: θ = α at the end of the pulse"})
+                )
                 keep = t <= t_end_pulse
                 t, theta, omega = t[keep], theta[keep], omega[keep]
         com, quat, omv = self._kinematics(scene, body, theta, omega)
@@ -198,7 +207,9 @@ class CurvedBaseEngine(EngineBase):
     )
 
     def profiles(self) -> dict[str, dict[str, Any]]:
-        return {"faithful": {"rtol": 1e-11, "atol": 1e-13, "max_step": None, "clamp": 5.0, "omega_rest": 1e-8}}
+        return {
+            "faithful": {"rtol": 1e-11, "atol": 1e-13, "max_step": None, "clamp": 5.0, "omega_rest": 1e-8}
+        }
 
     def versions(self) -> dict[str, str]:
         from pbr_xval import __version__
@@ -215,7 +226,9 @@ class CurvedBaseEngine(EngineBase):
             raise NotApplicable(f"curved_base: needs a curved_base rock, got {scene.rock.shape!r}")
         body_x = scene.rock.rotation[:, 0]
         if abs(abs(float(body_x @ scene.direction)) - 1.0) > 1e-9:
-            raise NotApplicable("curved_base: the shaking must lie in the plane of the profile (azimuth = rock yaw)")
+            raise NotApplicable(
+                "curved_base: the shaking must lie in the plane of the profile (azimuth = rock yaw)"
+            )
         sign = float(np.sign(body_x @ scene.direction))
         area_depth = None
         lam = CurvedBaseLamina(rock.H, rock.r, rock.h, depth=rock.depth, density=1.0)

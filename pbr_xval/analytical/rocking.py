@@ -228,9 +228,7 @@ class _HybridResult:
     segments: list[tuple[float, float, int, Any]] = field(default_factory=list)
 
 
-def _find_uplift(
-    model: HybridModel, t0: float, t1: float, scan_dt: float
-) -> tuple[float, int] | None:
+def _find_uplift(model: HybridModel, t0: float, t1: float, scan_dt: float) -> tuple[float, int] | None:
     """First time in [t0, t1] at which motion onto a side starts, with that side (+1 right, −1 left).
 
     The start needs a strictly positive uplift margin AND a strictly positive s·θ̈ at θ = θ̇ = 0, so that the
@@ -250,7 +248,13 @@ def _find_uplift(
             step *= 2.0
         return x
 
-    starts = [(x, s) for s in (1, -1) if model.uplift_margin(t0, s) > 0.0 for x in [settle(t0, t1, s)] if x is not None]
+    starts = [
+        (x, s)
+        for s in (1, -1)
+        if model.uplift_margin(t0, s) > 0.0
+        for x in [settle(t0, t1, s)]
+        if x is not None
+    ]
     if starts and min(starts)[0] == t0:
         return min(starts)
     n = max(1, math.ceil((t1 - t0) / scan_dt))
@@ -395,8 +399,15 @@ def _integrate_hybrid(
             t = b
             continue
         sol = solve_ivp(
-            f, (t, b), [th, om], method="DOP853", rtol=rtol, atol=atol, max_step=max_step,
-            events=evs, dense_output=True,
+            f,
+            (t, b),
+            [th, om],
+            method="DOP853",
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            events=evs,
+            dense_output=True,
         )
         if sol.status == -1:
             raise RuntimeError(f"solve_ivp failed at t={t}: {sol.message}")
@@ -433,8 +444,13 @@ def _integrate_hybrid(
         n_impacts += 1
         events.append(
             {
-                "kind": "impact", "t": t, "omega_minus": om, "omega_plus": om_plus, "ratio": ratio,
-                "from_side": _side_name(s), "to_side": _side_name(new),
+                "kind": "impact",
+                "t": t,
+                "omega_minus": om,
+                "omega_plus": om_plus,
+                "ratio": ratio,
+                "from_side": _side_name(s),
+                "to_side": _side_name(new),
             }
         )
         reason = None
@@ -474,10 +490,17 @@ def _integrate_hybrid(
     if peaks:
         cand.append(float(np.max(ratio_of(np.array([p[1] for p in peaks])))))
     return _HybridResult(
-        t=tt, theta=yth, omega=yom, events=events,
+        t=tt,
+        theta=yth,
+        omega=yom,
+        events=events,
         peaks=np.array(peaks, dtype=float).reshape(-1, 2),
-        toppled=toppled, toppled_at=toppled_at, peak_theta_ratio=max(cand),
-        n_impacts=n_impacts, rhs_evals=rhs_evals, segments=segments,
+        toppled=toppled,
+        toppled_at=toppled_at,
+        peak_theta_ratio=max(cand),
+        n_impacts=n_impacts,
+        rhs_evals=rhs_evals,
+        segments=segments,
     )
 
 
@@ -621,10 +644,28 @@ def simulate_rocking(
         norm_angle=lambda s: al[s],
     )
     r = _integrate_hybrid(
-        model, t_end, breakpoints=breakpoints, theta0=theta0, omega0=omega0, rtol=rtol, atol=atol,
-        max_step=max_step, dense_dt=dense_dt, omega_rest=omega_rest, zeno_dt=zeno_dt, max_impacts=max_impacts,
+        model,
+        t_end,
+        breakpoints=breakpoints,
+        theta0=theta0,
+        omega0=omega0,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        dense_dt=dense_dt,
+        omega_rest=omega_rest,
+        zeno_dt=zeno_dt,
+        max_impacts=max_impacts,
     )
     return RockingSolution(
-        t=r.t, theta=r.theta, omega=r.omega, events=r.events, toppled=r.toppled, toppled_at=r.toppled_at,
-        peak_theta_ratio=r.peak_theta_ratio, n_impacts=r.n_impacts, rhs_evals=r.rhs_evals, peaks=r.peaks,
+        t=r.t,
+        theta=r.theta,
+        omega=r.omega,
+        events=r.events,
+        toppled=r.toppled,
+        toppled_at=r.toppled_at,
+        peak_theta_ratio=r.peak_theta_ratio,
+        n_impacts=r.n_impacts,
+        rhs_evals=r.rhs_evals,
+        peaks=r.peaks,
     )

@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> int:
-    from pbr_xval.catalog_cli import choose_command, sweep_command
+    from pbr_xval.cli.catalog_impl import choose_command, sweep_command
 
     p = argparse.ArgumentParser(prog="python -m pbr_xval.catalog")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -29,7 +29,9 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("--budget", type=float, default=0.05)
     a = p.parse_args(argv)
     if a.cmd == "sweep":
-        return sweep_command(a.catalog, a.out, a.engines, a.profile, a.executor, a.workers, a.scheduler, a.shard, a.chunk_size)
+        return sweep_command(
+            a.catalog, a.out, a.engines, a.profile, a.executor, a.workers, a.scheduler, a.shard, a.chunk_size
+        )
     return choose_command(a.catalog, a.budget, a.out)
 
 

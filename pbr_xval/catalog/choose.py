@@ -52,14 +52,22 @@ def _pick_reference(cat: Catalog, rocks: list[str], motions: list[dict[str, Any]
     err = _engine_ok(ref)
     if err:
         return fb, f"reference engine {ref!r} unavailable ({err}); fell back to {fb!r}"
-    probe = build_chunks(cat, engines=[ref], chunk_size=1, rocks=rocks[:1], motions=motions[-1:], tag="choose")[0]
+    probe = build_chunks(
+        cat, engines=[ref], chunk_size=1, rocks=rocks[:1], motions=motions[-1:], tag="choose"
+    )[0]
     t0 = time.perf_counter()
     rows, _ = run_chunk(probe)
     dt = time.perf_counter() - t0
     if rows[0]["status"] != "ok":
-        return fb, f"reference engine {ref!r} cannot run the calibration set ({rows[0]['status']}: {rows[0]['message'][:120]}); fell back to {fb!r}"
+        return (
+            fb,
+            f"reference engine {ref!r} cannot run the calibration set ({rows[0]['status']}: {rows[0]['message'][:120]}); fell back to {fb!r}",
+        )
     if dt > c.reference_max_seconds:
-        return fb, f"reference engine {ref!r} took {dt:.1f} s per simulation (> {c.reference_max_seconds} s); fell back to {fb!r}"
+        return (
+            fb,
+            f"reference engine {ref!r} took {dt:.1f} s per simulation (> {c.reference_max_seconds} s); fell back to {fb!r}",
+        )
     return ref, f"reference engine {ref!r} ({dt:.2f} s for a probe simulation)"
 
 
@@ -84,7 +92,9 @@ def _candidates(cat: Catalog) -> list[tuple[str, str | None, dict[str, Any]]]:
     return out
 
 
-def choose(cat: Catalog, budget: float, out: str | Path, *, workers: int | None = None, console: Any = None) -> dict[str, Any]:
+def choose(
+    cat: Catalog, budget: float, out: str | Path, *, workers: int | None = None, console: Any = None
+) -> dict[str, Any]:
     """Run the calibration and return the report dict (see :func:`format_choice`)."""
     from pbr_xval.catalog.fragility import fit_lognormal
 
@@ -96,23 +106,42 @@ def choose(cat: Catalog, budget: float, out: str | Path, *, workers: int | None 
     cands = _candidates(cat)
     cand_keys = []
     for name, prof, s in cands:
-        cs = build_chunks(cat, engines=[name], profile=prof, rocks=rocks, motions=motions, settings={name: s}, tag="choose")
+        cs = build_chunks(
+            cat, engines=[name], profile=prof, rocks=rocks, motions=motions, settings={name: s}, tag="choose"
+        )
         chunks += cs
         cand_keys.append((cs[0].engine_label, prof or "", cs[0].settings))
-    summary = run_chunks(chunks, store_dir, workers=workers, console=console, progress=console is not None, description="calibration")
+    summary = run_chunks(
+        chunks,
+        store_dir,
+        workers=workers,
+        console=console,
+        progress=console is not None,
+        description="calibration",
+    )
     df = load_results(store_dir)
     ref_label = ref.rsplit(":", 1)[-1]
-    ref_chunk_settings = json.dumps(build_chunks(cat, engines=[ref], rocks=rocks[:1], motions=motions[:1])[0].settings, sort_keys=True, separators=(",", ":"))
+    ref_chunk_settings = json.dumps(
+        build_chunks(cat, engines=[ref], rocks=rocks[:1], motions=motions[:1])[0].settings,
+        sort_keys=True,
+        separators=(",", ":"),
+    )
     rdf = df[(df["engine"] == ref_label) & (df["profile"] == "") & (df["settings"] == ref_chunk_settings)]
     rdf = rdf.drop_duplicates(["rock_id", "motion_id"]).set_index(["rock_id", "motion_id"])
     c = cat.choose
-    use_fit = all((rdf.loc[r]["status"] == "ok").sum() >= c.min_runs_for_fit for r in rocks if r in rdf.index.get_level_values(0))
+    use_fit = all(
+        (rdf.loc[r]["status"] == "ok").sum() >= c.min_runs_for_fit
+        for r in rocks
+        if r in rdf.index.get_level_values(0)
+    )
     ref_fits = {}
     if use_fit:
         for r in rocks:
             g = rdf.loc[r]
             g = g[g["status"] == "ok"]
-            f = fit_lognormal(g["pga"].to_numpy(), g["toppled"].to_numpy(), "pga", min_runs=c.min_runs_for_fit)
+            f = fit_lognormal(
+                g["pga"].to_numpy(), g["toppled"].to_numpy(), "pga", min_runs=c.min_runs_for_fit
+            )
             ref_fits[r] = f
             if f.status != "ok":
                 use_fit = False
@@ -120,12 +149,18 @@ def choose(cat: Catalog, budget: float, out: str | Path, *, workers: int | None 
     results = []
     for (name, prof, s), (label, p, settings) in zip(cands, cand_keys, strict=True):
         sj = json.dumps(settings, sort_keys=True, separators=(",", ":"))
-        g = df[(df["engine"] == label) & (df["profile"] == p) & (df["settings"] == sj)].drop_duplicates(["rock_id", "motion_id"])
+        g = df[(df["engine"] == label) & (df["profile"] == p) & (df["settings"] == sj)].drop_duplicates(
+            ["rock_id", "motion_id"]
+        )
         g = g.set_index(["rock_id", "motion_id"])
         common = g.index.intersection(rdf.index)
         okmask = (g.loc[common, "status"] == "ok") & (rdf.loc[common, "status"] == "ok")
         n_ok = int(okmask.sum())
-        agree = float((g.loc[common, "toppled"][okmask] == rdf.loc[common, "toppled"][okmask]).mean()) if n_ok else math.nan
+        agree = (
+            float((g.loc[common, "toppled"][okmask] == rdf.loc[common, "toppled"][okmask]).mean())
+            if n_ok
+            else math.nan
+        )
         s_per_sim = float(g["wall_s"][g["status"] == "ok"].mean()) if n_ok else math.nan
         entry: dict[str, Any] = {"engine": name, "profile": prof, "settings": s, "n_runs": len(g), "n_compared": n_ok,
                                  "agreement": agree, "s_per_sim": s_per_sim}  # fmt: skip
@@ -137,7 +172,9 @@ def choose(cat: Catalog, budget: float, out: str | Path, *, workers: int | None 
                     diffs[r] = math.nan
                     continue
                 gr = gr[gr["status"] == "ok"]
-                f = fit_lognormal(gr["pga"].to_numpy(), gr["toppled"].to_numpy(), "pga", min_runs=c.min_runs_for_fit)
+                f = fit_lognormal(
+                    gr["pga"].to_numpy(), gr["toppled"].to_numpy(), "pga", min_runs=c.min_runs_for_fit
+                )
                 diffs[r] = f.theta / ref_fits[r].theta - 1.0 if f.status == "ok" else math.nan
             entry["median_rel_diff"] = diffs
             worst = max((abs(v) for v in diffs.values()), default=math.nan)
@@ -145,7 +182,9 @@ def choose(cat: Catalog, budget: float, out: str | Path, *, workers: int | None 
             entry["passes"] = bool(entry["error"] <= budget)
         else:
             entry["error"] = 1.0 - agree if agree == agree else math.inf
-            entry["passes"] = bool(n_ok > 0 and entry["error"] <= budget + 1e-12 and n_ok == len(common) and len(common) > 0)
+            entry["passes"] = bool(
+                n_ok > 0 and entry["error"] <= budget + 1e-12 and n_ok == len(common) and len(common) > 0
+            )
         results.append(entry)
     passing = [e for e in results if e["passes"] and e["s_per_sim"] == e["s_per_sim"]]
     rec = min(passing, key=lambda e: e["s_per_sim"]) if passing else None
@@ -187,7 +226,9 @@ def format_choice(res: dict[str, Any]) -> str:
         "| engine | profile | settings | error | agreement | s/sim | passes |",
         "|---|---|---|---|---|---|---|",
     ]
-    for e in sorted(res["candidates"], key=lambda e: (e["s_per_sim"] if e["s_per_sim"] == e["s_per_sim"] else math.inf)):
+    for e in sorted(
+        res["candidates"], key=lambda e: e["s_per_sim"] if e["s_per_sim"] == e["s_per_sim"] else math.inf
+    ):
         lines.append(
             f"| {e['engine']} | {e['profile']} | {json.dumps(e['settings'])} | {e['error']:.4g} | {e['agreement']:.3f} | "
             f"{e['s_per_sim']:.4g} | {'yes' if e['passes'] else 'no'} |"

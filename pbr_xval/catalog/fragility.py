@@ -49,7 +49,9 @@ class FragilityFit:
         return stats.norm.cdf(np.log(np.asarray(x, float) / self.theta) / self.beta)
 
 
-def _group(im: np.ndarray, toppled: np.ndarray, rel: float = 1e-9) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _group(
+    im: np.ndarray, toppled: np.ndarray, rel: float = 1e-9
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     order = np.argsort(im)
     im, toppled = im[order], toppled[order]
     levels: list[float] = []
@@ -81,7 +83,9 @@ def fit_lognormal(im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2)
     keep = np.isfinite(x) & (x > 0)
     x, t = x[keep], t[keep]
     levels, n, z = _group(x, t)
-    fit = FragilityFit(im_name, math.nan, math.nan, int(n.sum()), int(z.sum()), levels.tolist(), n.tolist(), z.tolist())
+    fit = FragilityFit(
+        im_name, math.nan, math.nan, int(n.sum()), int(z.sum()), levels.tolist(), n.tolist(), z.tolist()
+    )
     if fit.n_runs < min_runs:
         fit.status, fit.message = "too_few", f"{fit.n_runs} runs; need at least {min_runs}"
         return fit
@@ -112,7 +116,13 @@ def fit_lognormal(im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2)
     if not (np.isfinite(b0) and b0 > 0):
         b0 = 0.5
     start = np.array([m0 if np.isfinite(m0) else lx.mean(), math.log(min(max(b0, 0.02), 5.0))])
-    res = optimize.minimize(_nll, start, args=(lx, n, z), method="Nelder-Mead", options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000})
+    res = optimize.minimize(
+        _nll,
+        start,
+        args=(lx, n, z),
+        method="Nelder-Mead",
+        options={"xatol": 1e-10, "fatol": 1e-12, "maxiter": 4000},
+    )
     res2 = optimize.minimize(_nll, res.x, args=(lx, n, z), method="BFGS")
     best = res2 if res2.success and res2.fun <= res.fun + 1e-12 else res
     fit.theta = float(math.exp(best.x[0]))
@@ -172,7 +182,9 @@ def fit_surface(pga: Any, pgv_pga: Any, toppled: Any) -> SurfaceFit:
         w = np.where(t, -g1, g0)
         return X.T @ w + 2e-8 * b
 
-    res = optimize.minimize(nll, np.zeros(3), jac=grad, method="BFGS", options={"gtol": 1e-8, "maxiter": 2000})
+    res = optimize.minimize(
+        nll, np.zeros(3), jac=grad, method="BFGS", options={"gtol": 1e-8, "maxiter": 2000}
+    )
     out.coef = [float(v) for v in res.x]
     out.loglik = -float(res.fun)
     big = np.abs(res.x).max() > 1e3

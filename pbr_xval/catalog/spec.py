@@ -108,7 +108,9 @@ class ChooseSpec(_Strict):
     reference_engine: str = "reference"
     fallback_engine: str = "housner"
     reference_max_seconds: float = Field(60.0, gt=0, description="per simulation; slower → fallback")
-    min_runs_for_fit: int = Field(6, ge=2, description="runs per rock below which the agreement metric is used")
+    min_runs_for_fit: int = Field(
+        6, ge=2, description="runs per rock below which the agreement metric is used"
+    )
     cores: int = Field(100, ge=1, description="cores for the projected wall time")
 
 
@@ -207,7 +209,12 @@ def _validate_rock(raw: dict[str, Any], base: Path, seen: set[str]) -> dict[str,
         raise _KeyError("id", "duplicate rock id", rid, "ids unique within the catalog")
     shape = raw.get("shape")
     if shape not in SHAPES:
-        raise _KeyError("shape", "unknown shape" if shape is not None else "missing required key", shape, "one of " + ", ".join(SHAPES))
+        raise _KeyError(
+            "shape",
+            "unknown shape" if shape is not None else "missing required key",
+            shape,
+            "one of " + ", ".join(SHAPES),
+        )
     keys = SHAPE_KEYS[shape]
     for k in raw:
         if k not in COMMON_KEYS and k not in keys:
@@ -263,7 +270,9 @@ def _validate_rock(raw: dict[str, Any], base: Path, seen: set[str]) -> dict[str,
         ped_m = TypeAdapter(sc.Pedestal).validate_python(ped)
     except ValidationError as exc:
         key, msg, found = _first_error(exc, "pedestal")
-        raise _KeyError(key, msg, found, "a pedestal table: kind = plane | box (half_extents) | mesh (path)") from None
+        raise _KeyError(
+            key, msg, found, "a pedestal table: kind = plane | box (half_extents) | mesh (path)"
+        ) from None
     ped_d = ped_m.model_dump(mode="json")
     if ped_d["kind"] == "mesh":
         p = _resolve(ped_d["path"], base)
@@ -296,7 +305,9 @@ def _validate_rock(raw: dict[str, Any], base: Path, seen: set[str]) -> dict[str,
         if shape == "mesh":
             p = _resolve(str(params["path"]), base)
             if not p.is_file():
-                raise _KeyError("path", "file not found", str(p), "an existing mesh file (OBJ, PLY, STL, OFF)")
+                raise _KeyError(
+                    "path", "file not found", str(p), "an existing mesh file (OBJ, PLY, STL, OFF)"
+                )
             rock_d["path"] = str(p)
         try:
             TypeAdapter(sc.Rock).validate_python(rock_d)
@@ -335,7 +346,9 @@ def _csv_value(key: str, text: str) -> Any:
         try:
             return [float(p) for p in parts]
         except ValueError:
-            raise _KeyError(key, "not a list of numbers", text, "numbers separated by spaces or ';'") from None
+            raise _KeyError(
+                key, "not a list of numbers", text, "numbers separated by spaces or ';'"
+            ) from None
     if key in ("seed", "subdivisions", "arc_segments"):
         try:
             return int(text)
@@ -364,7 +377,11 @@ def _rocks_from_csv(path: Path, errors: list[str]) -> list[tuple[str, dict[str, 
         return out
     for h in header:
         if h not in ALL_ROCK_KEYS and not h.startswith("#"):
-            errors.append(_fmt(f"{path}: header", h, "unknown column", None, "one of " + ", ".join(sorted(ALL_ROCK_KEYS))))
+            errors.append(
+                _fmt(
+                    f"{path}: header", h, "unknown column", None, "one of " + ", ".join(sorted(ALL_ROCK_KEYS))
+                )
+            )
             return out
     for n, row in enumerate(reader, start=1):
         line = n + 1
@@ -394,7 +411,12 @@ def _grid_points(raw: dict[str, Any], where: str) -> list[dict[str, Any]]:
     raw = dict(raw)
     ptype = raw.get("type")
     if ptype not in PULSE_TYPES:
-        raise _KeyError("type", "unknown pulse type" if ptype else "missing required key", ptype, "one of " + ", ".join(PULSE_TYPES))
+        raise _KeyError(
+            "type",
+            "unknown pulse type" if ptype else "missing required key",
+            ptype,
+            "one of " + ", ".join(PULSE_TYPES),
+        )
     keys = sorted(k for k in raw if k != "type")
     grids = []
     for k in keys:
@@ -458,7 +480,9 @@ def _record_motions(raw: dict[str, Any], base: Path) -> list[dict[str, Any]]:
         raise _KeyError("folder", "folder not found", str(folder), "an existing folder of records")
     files = sorted(p for p in folder.glob(spec.pattern) if p.is_file())
     if not files:
-        raise _KeyError("pattern", f"no files match in {folder}", spec.pattern, "a glob matching record files")
+        raise _KeyError(
+            "pattern", f"no files match in {folder}", spec.pattern, "a glob matching record files"
+        )
     out = []
     for f in files:
         kw: dict[str, Any] = {}
@@ -484,15 +508,17 @@ def _record_motions(raw: dict[str, Any], base: Path) -> list[dict[str, Any]]:
                 if spec.dt is not None:
                     exc_d["dt"] = spec.dt
             tag = {"target_pga": "pga", "target_pgv": "pgv", "scale": "x"}[key]
-            out.append({
-                "id": f"{_safe(f.stem)}@{tag}{_g(v)}",
-                "kind": "record",
-                "excitation": exc_d,
-                "params": {"record": f.name, key: v},
-                "path": str(f),
-                "sha256": sha,
-                "duration": float(rec.duration),
-            })
+            out.append(
+                {
+                    "id": f"{_safe(f.stem)}@{tag}{_g(v)}",
+                    "kind": "record",
+                    "excitation": exc_d,
+                    "params": {"record": f.name, key: v},
+                    "path": str(f),
+                    "sha256": sha,
+                    "duration": float(rec.duration),
+                }
+            )
     return out
 
 
@@ -515,7 +541,11 @@ def load_catalog(path: str | Path) -> Catalog:
     except OSError as exc:
         raise CatalogError([f"{path}: cannot read catalog file ({exc.strerror})"]) from None
     if path.suffix.lower() == ".csv":  # a bare rock list: no motions
-        raise CatalogError([f"{path}: a CSV file is a rock list; reference it from a catalog TOML as rocks_csv = '{path.name}'"])
+        raise CatalogError(
+            [
+                f"{path}: a CSV file is a rock list; reference it from a catalog TOML as rocks_csv = '{path.name}'"
+            ]
+        )
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -542,7 +572,9 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
     if data.get("rocks_csv") is not None:
         csv_path = _resolve(str(data["rocks_csv"]), base)
         if not csv_path.is_file():
-            errors.append(_fmt(where, "rocks_csv", "file not found", str(csv_path), "an existing CSV rock list"))
+            errors.append(
+                _fmt(where, "rocks_csv", "file not found", str(csv_path), "an existing CSV rock list")
+            )
         else:
             entries += _rocks_from_csv(csv_path, errors)
     if not entries and not errors:
@@ -564,7 +596,15 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
     motions: list[dict[str, Any]] = []
     mt = data.get("motions")
     if not isinstance(mt, dict):
-        errors.append(_fmt(where, "motions", "missing required table", None, "[[motions.pulse]] grids or [motions.records]"))
+        errors.append(
+            _fmt(
+                where,
+                "motions",
+                "missing required table",
+                None,
+                "[[motions.pulse]] grids or [motions.records]",
+            )
+        )
     else:
         for k in mt:
             if k not in ("pulse", "records"):
@@ -588,13 +628,38 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
             except _KeyError as e:
                 errors.append(_fmt(w, e.key, e.msg, e.found, e.expected))
         if not motions and not errors:
-            errors.append(_fmt(f"{where}: [motions]", "pulse", "no motions", None, "at least one pulse grid or record"))
+            errors.append(
+                _fmt(f"{where}: [motions]", "pulse", "no motions", None, "at least one pulse grid or record")
+            )
         ids = [m["id"] for m in motions]
         dups = sorted({x for x in ids if ids.count(x) > 1})
         if dups:
-            errors.append(_fmt(f"{where}: [motions]", "id", "duplicate motion ids", dups[:5], "distinct grid points / records"))
+            errors.append(
+                _fmt(
+                    f"{where}: [motions]",
+                    "id",
+                    "duplicate motion ids",
+                    dups[:5],
+                    "distinct grid points / records",
+                )
+            )
     # top level
-    top = {k: data[k] for k in ("name", "seed", "duration", "tail", "settle_time", "output_dt", "engines", "profile", "settings", "chunk_size") if k in data}
+    top = {
+        k: data[k]
+        for k in (
+            "name",
+            "seed",
+            "duration",
+            "tail",
+            "settle_time",
+            "output_dt",
+            "engines",
+            "profile",
+            "settings",
+            "chunk_size",
+        )
+        if k in data
+    }
     top.setdefault("name", Path(where).stem if source else "catalog")
     top.setdefault("engines", ["housner"])
     if "choose" in data:
@@ -608,7 +673,9 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
     except ValidationError as exc:
         for err in exc.errors():
             key = ".".join(str(p) for p in err["loc"])
-            errors.append(_fmt(where, key, err["msg"], err.get("input") if err["type"] != "missing" else None))
+            errors.append(
+                _fmt(where, key, err["msg"], err.get("input") if err["type"] != "missing" else None)
+            )
     if errors:
         raise CatalogError(errors)
     return Catalog(**top, source=str(source) if source else None, rocks=rocks, motions=motions)

@@ -28,7 +28,15 @@ if TYPE_CHECKING:
 
     from pbr_xval.catalog.tasks import ChunkSpec
 
-__all__ = ["chunk_done", "chunk_files", "chunk_path", "load_results", "read_chunk_meta", "write_chunk", "write_text_atomic"]
+__all__ = [
+    "chunk_done",
+    "chunk_files",
+    "chunk_path",
+    "load_results",
+    "read_chunk_meta",
+    "write_chunk",
+    "write_text_atomic",
+]
 
 META_KEY = b"pbr_xval_chunk"
 
@@ -38,7 +46,12 @@ def _safe(s: str) -> str:
 
 
 def chunk_path(out: str | os.PathLike[str], spec: ChunkSpec) -> Path:
-    return Path(out) / f"engine={spec.engine_label}" / f"rock={_safe(spec.rock['id'])}" / f"{spec.content_hash()}.parquet"
+    return (
+        Path(out)
+        / f"engine={spec.engine_label}"
+        / f"rock={_safe(spec.rock['id'])}"
+        / f"{spec.content_hash()}.parquet"
+    )
 
 
 def _schema() -> Any:
@@ -67,7 +80,9 @@ def _fsync_dir(d: Path) -> None:
         os.close(fd)
 
 
-def write_chunk(out: str | os.PathLike[str], spec: ChunkSpec, rows: list[dict[str, Any]], provenance: dict[str, Any]) -> Path:
+def write_chunk(
+    out: str | os.PathLike[str], spec: ChunkSpec, rows: list[dict[str, Any]], provenance: dict[str, Any]
+) -> Path:
     """Write one chunk's rows atomically (temp file in the same dir, fsync, os.replace)."""
     import pyarrow as pa
 
@@ -127,7 +142,12 @@ def load_results(out: str | os.PathLike[str], *, tag: str | None = None) -> pd.D
                 keep.append(f)
         files = keep
     if not files:
-        return pd.DataFrame({c: pd.Series(dtype=t.to_pandas_dtype()) for c, t in zip(_schema().names, _schema().types, strict=True)})
+        return pd.DataFrame(
+            {
+                c: pd.Series(dtype=t.to_pandas_dtype())
+                for c, t in zip(_schema().names, _schema().types, strict=True)
+            }
+        )
     dataset = ds.dataset([str(f) for f in files], format="parquet", schema=_schema())
     return dataset.to_table().to_pandas()
 

@@ -144,7 +144,14 @@ def _local(
                     suspects.append(spec)
                 except Exception as exc:  # an exception escaping execute_chunk (e.g. disk full)
                     summary.failed += 1
-                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"{type(exc).__name__}: {exc}"})
+                    summary.failures.append(
+                        {
+                            "chunk": spec.content_hash(),
+                            "rock": spec.rock["id"],
+                            "engine": spec.engine,
+                            "reason": f"{type(exc).__name__}: {exc}",
+                        }
+                    )
                     tick()
             if broken:
                 # every chunk still in the pool is lost with it: collect and re-run alone
@@ -164,7 +171,14 @@ def _local(
                         summary.add(res)
                     else:
                         summary.failed += 1
-                        summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"failed twice; {reason}"})
+                        summary.failures.append(
+                            {
+                                "chunk": spec.content_hash(),
+                                "rock": spec.rock["id"],
+                                "engine": spec.engine,
+                                "reason": f"failed twice; {reason}",
+                            }
+                        )
                     tick()
                 pool = new_pool()
     finally:
@@ -199,7 +213,9 @@ def _dask(
             say(f"Dask dashboard: {client.dashboard_link}")
             futs = {}
             for spec in todo:
-                f = client.submit(execute_chunk, spec.to_json(), out, key=f"chunk-{spec.content_hash()}", pure=False)
+                f = client.submit(
+                    execute_chunk, spec.to_json(), out, key=f"chunk-{spec.content_hash()}", pure=False
+                )
                 futs[f] = spec
             for f in as_completed(list(futs)):
                 spec = futs[f]
@@ -207,10 +223,24 @@ def _dask(
                     summary.add(f.result())
                 except KilledWorker as exc:
                     summary.failed += 1
-                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"worker died twice running the chunk (KilledWorker: {exc})"})
+                    summary.failures.append(
+                        {
+                            "chunk": spec.content_hash(),
+                            "rock": spec.rock["id"],
+                            "engine": spec.engine,
+                            "reason": f"worker died twice running the chunk (KilledWorker: {exc})",
+                        }
+                    )
                 except Exception as exc:
                     summary.failed += 1
-                    summary.failures.append({"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": f"{type(exc).__name__}: {exc}"})
+                    summary.failures.append(
+                        {
+                            "chunk": spec.content_hash(),
+                            "rock": spec.rock["id"],
+                            "engine": spec.engine,
+                            "reason": f"{type(exc).__name__}: {exc}",
+                        }
+                    )
                 tick()
         finally:
             client.close()
@@ -285,7 +315,10 @@ def run_chunks(
                 raise ValueError(f"unknown executor {executor!r}; expected 'local', 'dask' or 'inline'")
     summary.wall_s = time.perf_counter() - t0
     if summary.failures:
-        store.write_text_atomic(Path(out) / "_failed" / f"failed-{os.getpid()}-{int(time.time())}.json", json.dumps(summary.failures, indent=2))
+        store.write_text_atomic(
+            Path(out) / "_failed" / f"failed-{os.getpid()}-{int(time.time())}.json",
+            json.dumps(summary.failures, indent=2),
+        )
     return summary
 
 
@@ -308,7 +341,9 @@ def run_sweep(
 
     if not isinstance(catalog, Catalog):
         catalog = load_catalog(catalog)
-    chunks = shard_chunks(build_chunks(catalog, engines=engines, profile=profile, chunk_size=chunk_size), shard)
+    chunks = shard_chunks(
+        build_chunks(catalog, engines=engines, profile=profile, chunk_size=chunk_size), shard
+    )
     return run_chunks(
         chunks, out, executor=executor, workers=workers, scheduler=scheduler, progress=progress, console=console,
         description=f"{catalog.name}" + (f" shard {shard}" if shard else ""),

@@ -91,14 +91,18 @@ class ChunkSpec:
         import numpy as np
 
         h = self.content_hash()
-        return np.random.SeedSequence(self.catalog_seed, spawn_key=tuple(int(h[i : i + 8], 16) for i in range(0, 32, 8)))
+        return np.random.SeedSequence(
+            self.catalog_seed, spawn_key=tuple(int(h[i : i + 8], 16) for i in range(0, 32, 8))
+        )
 
 
 def sim_seed_sequence(catalog_seed: int, rock_id: str, motion_id: str) -> Any:
     import numpy as np
 
     h = hashlib.sha256(f"{rock_id}\x00{motion_id}".encode()).hexdigest()
-    return np.random.SeedSequence(catalog_seed, spawn_key=tuple(int(h[i : i + 8], 16) for i in range(0, 32, 8)))
+    return np.random.SeedSequence(
+        catalog_seed, spawn_key=tuple(int(h[i : i + 8], 16) for i in range(0, 32, 8))
+    )
 
 
 def build_chunks(
@@ -185,7 +189,18 @@ def synthetic_mesh_file(rock: dict[str, Any]) -> str:
     """Write (once per process / machine) the synthetic rock's mesh; deterministic bytes."""
     from pbr_xval.geometry.synthetic import synthetic_rock
 
-    params = {k: rock[k] for k in ("seed", "radii", "roughness", "base_fraction", "unevenness", "subdivisions", "target_alpha_deg")}
+    params = {
+        k: rock[k]
+        for k in (
+            "seed",
+            "radii",
+            "roughness",
+            "base_fraction",
+            "unevenness",
+            "subdivisions",
+            "target_alpha_deg",
+        )
+    }
     key = hashlib.sha256(_canon(params).encode()).hexdigest()[:24]
     if key in _MESH_CACHE and Path(_MESH_CACHE[key]).is_file():
         return _MESH_CACHE[key]
@@ -303,7 +318,9 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
         except NotApplicable as exc:
             row.update(status="not_applicable", message=str(exc), wall_s=time.perf_counter() - t0)
         except Exception as exc:  # a run's error is a row, not a crash of the chunk
-            row.update(status="error", message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0)
+            row.update(
+                status="error", message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0
+            )
         rows.append(row)
     versions = eng.versions() if hasattr(eng, "versions") else {}
     prov = {
@@ -338,7 +355,15 @@ def execute_chunk(spec_json: str, out: str, skip_existing: bool = True) -> dict[
     spec = ChunkSpec.from_dict(json.loads(spec_json))
     h = spec.content_hash()
     if skip_existing and store.chunk_done(out, spec):
-        return {"hash": h, "skipped": True, "n": 0, "compute_s": 0.0, "write_s": 0.0, "pid": os.getpid(), "rss_mb": _peak_rss_mb()}
+        return {
+            "hash": h,
+            "skipped": True,
+            "n": 0,
+            "compute_s": 0.0,
+            "write_s": 0.0,
+            "pid": os.getpid(),
+            "rss_mb": _peak_rss_mb(),
+        }
     t0 = time.perf_counter()
     rows, prov = run_chunk(spec)
     t1 = time.perf_counter()

@@ -40,7 +40,9 @@ __all__ = [
 
 DEFAULT_ALPHA_MULTIPLE = 8.0
 MIN_HULL_FRACTION = 0.5  # a solid below this fraction of its hull volume means the carving leaked in
-_FACE_OPPOSITE = np.array([[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]])  # face opposite vertex j, outward for + volume
+_FACE_OPPOSITE = np.array(
+    [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]
+)  # face opposite vertex j, outward for + volume
 
 
 def median_spacing(points: np.ndarray) -> float:
@@ -93,7 +95,9 @@ class AlphaSolid:
         """Sum of the kept tetrahedra volumes (m³); equals the boundary mesh volume."""
         p, s = self.points, self.delaunay.simplices[self.kept]
         a = p[s[:, 0]]
-        return float(np.abs(np.einsum("ij,ij->i", p[s[:, 1]] - a, np.cross(p[s[:, 2]] - a, p[s[:, 3]] - a))).sum() / 6)
+        return float(
+            np.abs(np.einsum("ij,ij->i", p[s[:, 1]] - a, np.cross(p[s[:, 2]] - a, p[s[:, 3]] - a))).sum() / 6
+        )
 
     def grid_nodes(self, spacing: float, method: str = "surface") -> np.ndarray:
         """Cell centres of a regular grid of side ``spacing`` inside the solid (n, 3).
@@ -164,7 +168,13 @@ def face_circumradii(points: np.ndarray, simplices: np.ndarray) -> np.ndarray:
 
 
 def _select(
-    dl: Delaunay, radii: np.ndarray, face_radii: np.ndarray, alpha: float, criterion: str, closed_base: bool, down: np.ndarray
+    dl: Delaunay,
+    radii: np.ndarray,
+    face_radii: np.ndarray,
+    alpha: float,
+    criterion: str,
+    closed_base: bool,
+    down: np.ndarray,
 ) -> np.ndarray:
     n = len(dl.simplices)
     nb = dl.neighbors
@@ -247,7 +257,9 @@ def _downward_hull_faces(p: np.ndarray, dl: Delaunay) -> np.ndarray:
     return out
 
 
-def _fill_pinches(p: np.ndarray, dl: Delaunay, kept: np.ndarray, rounds: int = 12) -> tuple[np.ndarray, trimesh.Trimesh, int]:
+def _fill_pinches(
+    p: np.ndarray, dl: Delaunay, kept: np.ndarray, rounds: int = 12
+) -> tuple[np.ndarray, trimesh.Trimesh, int]:
     """Add the tets around edges shared by more than two boundary faces (pinches) until none remain."""
     s = dl.simplices
     order = np.argsort(s.ravel(), kind="stable")
@@ -308,7 +320,9 @@ def alpha_solid(
     try:
         dl = Delaunay(p)
     except Exception as exc:
-        raise GeometryError(f"{name}: Delaunay tetrahedralisation failed ({exc}); expected a 3-D point set") from None
+        raise GeometryError(
+            f"{name}: Delaunay tetrahedralisation failed ({exc}); expected a 3-D point set"
+        ) from None
     radii = circumradii(p, dl.simplices)
     face_radii = face_circumradii(p, dl.simplices) if criterion == "carve" else radii
     down = _downward_hull_faces(p, dl)
@@ -320,7 +334,9 @@ def alpha_solid(
         if kept.any():
             kept, mesh, n_fixed = _fill_pinches(p, dl, kept)
             if n_fixed:
-                warnings.append(f"alpha = {a:.4g} m: filled the tetrahedra around {n_fixed} non-manifold edge(s)")
+                warnings.append(
+                    f"alpha = {a:.4g} m: filled the tetrahedra around {n_fixed} non-manifold edge(s)"
+                )
             leaked = mesh.volume < MIN_HULL_FRACTION * hull_volume
             if leaked:
                 warnings.append(

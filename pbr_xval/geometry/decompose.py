@@ -104,4 +104,9 @@ def decomposition_report(mesh: trimesh.Trimesh, parts: list[trimesh.Trimesh]) ->
     """Number of parts and relative volume error (sum of part volumes vs the mesh)."""
     vol = float(mesh.volume)
     total = float(sum(p.volume for p in parts))
-    return {"n_parts": len(parts), "volume_m3": vol, "parts_volume_m3": total, "rel_volume_error": (total - vol) / vol}
+    return {
+        "n_parts": len(parts),
+        "volume_m3": vol,
+        "parts_volume_m3": total,
+        "rel_volume_error": (total - vol) / vol,
+    }

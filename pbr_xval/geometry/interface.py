@@ -105,7 +105,9 @@ def pedestal_plane(
     return c, n, {"n_points": len(near), "rms_m": rms, "radius_m": radius}
 
 
-def distance_to_mesh(points: np.ndarray, mesh: trimesh.Trimesh, n_samples: int = 200_000, seed: int = 0) -> np.ndarray:
+def distance_to_mesh(
+    points: np.ndarray, mesh: trimesh.Trimesh, n_samples: int = 200_000, seed: int = 0
+) -> np.ndarray:
     """Approximate unsigned distance from ``points`` to ``mesh`` (nearest of vertices + surface samples).
 
     (trimesh.proximity needs rtree, which this project does not require.)
@@ -127,7 +129,9 @@ def split_by_plane(
         below = trimesh.intersections.slice_mesh_plane(geom, -n, o, cap=True)
         for part, what in ((above, "above"), (below, "below")):
             if part is None or len(part.faces) == 0 or not part.volume > 0:
-                raise GeometryError(f"the cut plane through {o.tolist()} leaves nothing {what} it; expected a cut through the scan")
+                raise GeometryError(
+                    f"the cut plane through {o.tolist()} leaves nothing {what} it; expected a cut through the scan"
+                )
         return above, below
     p = np.asarray(geom, float)
     s = (p - o) @ n
@@ -271,7 +275,9 @@ def stable_pose(vertices: np.ndarray, com: np.ndarray) -> tuple[np.ndarray, dict
     }
 
 
-def settle_pose(vertices: np.ndarray, com: np.ndarray, max_iter: int = 20) -> tuple[np.ndarray, dict[str, Any]]:
+def settle_pose(
+    vertices: np.ndarray, com: np.ndarray, max_iter: int = 20
+) -> tuple[np.ndarray, dict[str, Any]]:
     """Settle the rock from its current orientation onto the hull face below its COM.
 
     The vertical through the COM leaves the convex hull through one face; that face is rotated
@@ -300,7 +306,11 @@ def settle_pose(vertices: np.ndarray, com: np.ndarray, max_iter: int = 20) -> tu
     pts = trimesh.transform_points(v0, total)
     total[2, 3] -= float(pts[:, 2].min())
     tilt = float(np.degrees(np.arccos(np.clip(total[2, 2], -1, 1))))
-    return total, {"face_normal": (-total[:3, :3].T @ [0, 0, 1.0]).tolist(), "iterations": it, "tilt_deg": tilt}
+    return total, {
+        "face_normal": (-total[:3, :3].T @ [0, 0, 1.0]).tolist(),
+        "iterations": it,
+        "tilt_deg": tilt,
+    }
 
 
 # ------------------------------------------------------------------------------------- stability

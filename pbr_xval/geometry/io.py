@@ -104,7 +104,9 @@ def _read_table(path: Path) -> np.ndarray:
                     f"{path}: line {lineno} is not numeric ({s[:60]!r}); expected x y z [more columns]"
                 ) from None
             if len(vals) < 3:
-                raise GeometryError(f"{path}: line {lineno} has {len(vals)} columns; expected at least 3 (x y z)")
+                raise GeometryError(
+                    f"{path}: line {lineno} has {len(vals)} columns; expected at least 3 (x y z)"
+                )
             rows.append(vals)
     return np.asarray(rows, dtype=np.float64).reshape(-1, 3)
 

@@ -172,7 +172,11 @@ def grid_nodes_in_mesh(mesh: trimesh.Trimesh, spacing: float, origin: np.ndarray
         if inside.any():
             gxu, gyu = divmod(int(u), ny)
             zz = zn[inside]
-            out.append(np.column_stack([np.full(len(zz), origin[0] + gxu * h), np.full(len(zz), origin[1] + gyu * h), zz]))
+            out.append(
+                np.column_stack(
+                    [np.full(len(zz), origin[0] + gxu * h), np.full(len(zz), origin[1] + gyu * h), zz]
+                )
+            )
     return np.concatenate(out) if out else np.zeros((0, 3))
 
 

@@ -43,7 +43,9 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
     """
     path = Path(path)
     if path.suffix.lower() not in MESH_FORMATS:
-        raise MeshError(f"{path}: unsupported mesh format {path.suffix!r}; expected one of {sorted(MESH_FORMATS)}")
+        raise MeshError(
+            f"{path}: unsupported mesh format {path.suffix!r}; expected one of {sorted(MESH_FORMATS)}"
+        )
     if not path.is_file():
         raise MeshError(f"{path}: file not found")
     try:

@@ -38,7 +38,9 @@ def decimate_keep_base(mesh: trimesh.Trimesh, cell: float, band: float) -> trime
     return out
 
 
-def basal_nodes(vertices: np.ndarray, com: np.ndarray, count: int | None = None, band: float | None = None) -> np.ndarray:
+def basal_nodes(
+    vertices: np.ndarray, com: np.ndarray, count: int | None = None, band: float | None = None
+) -> np.ndarray:
     """Contact nodes (k, 3) on the rock for a rigid-contact solver against a flat pedestal.
 
     ``count=None``: the convex-hull vertices below the centre of mass (only those can touch a

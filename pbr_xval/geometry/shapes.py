@@ -29,9 +29,9 @@ def box_mesh(half_extents: np.ndarray) -> trimesh.Trimesh:
     return m
 
 
-def notched_block_boxes(half_extents: np.ndarray, notch_width: float, notch_height: float) -> list[
-    tuple[np.ndarray, np.ndarray]
-]:
+def notched_block_boxes(
+    half_extents: np.ndarray, notch_width: float, notch_height: float
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """The notched block as three disjoint boxes: two feet and the slab above the notch.
 
     Returns

@@ -30,7 +30,9 @@ __all__ = ["simulate_scan", "synthetic_rock", "write_point_cloud"]
 _MONOMIALS = [(i, j, k) for i, j, k in product(range(4), repeat=3) if 1 <= i + j + k <= 3]
 
 
-def _body(radii: tuple[float, float, float], roughness: float, seed: int, subdivisions: int) -> trimesh.Trimesh:
+def _body(
+    radii: tuple[float, float, float], roughness: float, seed: int, subdivisions: int
+) -> trimesh.Trimesh:
     rng = np.random.default_rng(seed)
     sphere = trimesh.creation.icosphere(subdivisions=subdivisions)
     u = np.asarray(sphere.vertices, float)
@@ -38,7 +40,9 @@ def _body(radii: tuple[float, float, float], roughness: float, seed: int, subdiv
     coef = rng.normal(size=len(_MONOMIALS))
     deg = np.array([i + j + k for i, j, k in _MONOMIALS])
     coef /= deg  # damp the higher orders: a smooth, low-order perturbation
-    pert = sum(c * u[:, 0] ** i * u[:, 1] ** j * u[:, 2] ** k for c, (i, j, k) in zip(coef, _MONOMIALS, strict=True))
+    pert = sum(
+        c * u[:, 0] ** i * u[:, 1] ** j * u[:, 2] ** k for c, (i, j, k) in zip(coef, _MONOMIALS, strict=True)
+    )
     pert = pert - pert.mean()
     pert /= max(np.abs(pert).max(), 1e-12)
     taper = (0.5 * (1.0 + u[:, 2])) ** 2  # no perturbation at the bottom pole: the base stays under the body

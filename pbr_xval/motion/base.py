@@ -139,7 +139,9 @@ class GroundMotion(ABC):
         """tuple of float, s: times in ``[0, duration]`` where a(t) is non-smooth (incl. 0 and duration)."""
         return (0.0, float(self.duration))
 
-    def sample(self, dt: float, t_end: float | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def sample(
+        self, dt: float, t_end: float | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Sample the acceleration on the uniform grid ``0, dt, 2 dt, ... <= t_end``.
 
         Parameters
@@ -220,7 +222,12 @@ class ScaledMotion(GroundMotion):
         return abs(self.factor) * self.base.pgv  # type: ignore[attr-defined]
 
     def describe(self) -> dict[str, Any]:
-        return {"type": "ScaledMotion", "name": self.name, "factor": self.factor, "base": self.base.describe()}
+        return {
+            "type": "ScaledMotion",
+            "name": self.name,
+            "factor": self.factor,
+            "base": self.base.describe(),
+        }
 
 
 class Excitation3D:
@@ -236,7 +243,9 @@ class Excitation3D:
         Vertical component (positive up). ``None`` means no vertical motion.
     """
 
-    def __init__(self, horizontal: GroundMotion, azimuth: float = 0.0, vertical: GroundMotion | None = None) -> None:
+    def __init__(
+        self, horizontal: GroundMotion, azimuth: float = 0.0, vertical: GroundMotion | None = None
+    ) -> None:
         if not np.isfinite(azimuth):
             raise ValueError(f"azimuth must be a finite angle in rad, got {azimuth!r}")
         self.horizontal = horizontal
@@ -247,7 +256,11 @@ class Excitation3D:
     def _combine(self, kind: str, t: ArrayLike) -> NDArray[np.float64]:
         arr = np.asarray(t, dtype=float)
         h = np.asarray(getattr(self.horizontal, kind)(arr), dtype=float)
-        z = np.zeros_like(h) if self.vertical is None else np.asarray(getattr(self.vertical, kind)(arr), dtype=float)
+        z = (
+            np.zeros_like(h)
+            if self.vertical is None
+            else np.asarray(getattr(self.vertical, kind)(arr), dtype=float)
+        )
         return np.stack([h * self._dir[0], h * self._dir[1], z], axis=-1)
 
     def acceleration(self, t: ArrayLike) -> NDArray[np.float64]:

@@ -84,8 +84,14 @@ def _nj_coefficients(omega: float, zeta: float, dt: float) -> tuple[Arr, Arr]:
     Ds = wd * S + z * w * C
     B = np.array(
         [
-            [E * ((c1 + z / w) * S / wd + (c2 + 1 / w**2) * C) - c2, -E * (c1 * S / wd + c2 * C) - 1 / w**2 + c2],
-            [E * ((c1 + z / w) * Cs - (c2 + 1 / w**2) * Ds) + 1 / (w * w * dt), -E * (c1 * Cs - c2 * Ds) - 1 / (w * w * dt)],
+            [
+                E * ((c1 + z / w) * S / wd + (c2 + 1 / w**2) * C) - c2,
+                -E * (c1 * S / wd + c2 * C) - 1 / w**2 + c2,
+            ],
+            [
+                E * ((c1 + z / w) * Cs - (c2 + 1 / w**2) * Ds) + 1 / (w * w * dt),
+                -E * (c1 * Cs - c2 * Ds) - 1 / (w * w * dt),
+            ],
         ]
     )
     return A, B
@@ -172,12 +178,17 @@ def response_spectrum(a: ArrayLike, dt: float, periods: ArrayLike, damping: floa
         if Ti == 0.0:
             out[i] = pga(arr)
         else:
-            out[i] = (2.0 * math.pi / Ti) ** 2 * np.max(np.abs(_sdof(arr, float(dt), float(Ti), float(damping))))
+            out[i] = (2.0 * math.pi / Ti) ** 2 * np.max(
+                np.abs(_sdof(arr, float(dt), float(Ti), float(damping)))
+            )
     return out
 
 
 def intensity_measures(
-    motion: GroundMotion, dt: float | None = None, periods: Sequence[float] = (0.2, 1.0, 2.0), damping: float = 0.05
+    motion: GroundMotion,
+    dt: float | None = None,
+    periods: Sequence[float] = (0.2, 1.0, 2.0),
+    damping: float = 0.05,
 ) -> dict[str, Any]:
     """Common intensity measures of a motion.
 

@@ -44,7 +44,9 @@ def resample(record: Record, dt: float) -> Record:
         raise ValueError(f"dt must be a positive finite time step in s, got {dt!r}")
     n_new = math.floor((record.npts - 1) * record.dt / dt * (1 + 1e-12)) + 1
     if n_new < 2:
-        raise ValueError(f"dt={dt!r} s leaves fewer than 2 samples in a record of {record.duration - record.t0} s")
+        raise ValueError(
+            f"dt={dt!r} s leaves fewer than 2 samples in a record of {record.duration - record.t0} s"
+        )
     ratio = dt / record.dt
     frac = Fraction(ratio).limit_denominator(_MAX_POLY)
     method = "linear"

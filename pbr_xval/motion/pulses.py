@@ -88,7 +88,9 @@ class HalfSine(_Pulse):
     name : str, optional
     """
 
-    def __init__(self, amplitude: float, frequency: float = 1.0, phase: float = 0.0, *, name: str = "half_sine") -> None:
+    def __init__(
+        self, amplitude: float, frequency: float = 1.0, phase: float = 0.0, *, name: str = "half_sine"
+    ) -> None:
         self.amplitude = _positive("amplitude", amplitude, "m/s²")
         self.frequency = _positive("frequency", frequency, "Hz")
         phase = float(phase)
@@ -100,7 +102,9 @@ class HalfSine(_Pulse):
         self.name = name
 
     @classmethod
-    def housner(cls, amplitude: float, uplift_accel: float, frequency: float = 1.0, *, name: str = "half_sine") -> HalfSine:
+    def housner(
+        cls, amplitude: float, uplift_accel: float, frequency: float = 1.0, *, name: str = "half_sine"
+    ) -> HalfSine:
         """Pulse whose start a(0) = A sin φ equals the uplift acceleration g tan α.
 
         Parameters
@@ -354,7 +358,9 @@ class Ricker(GroundMotion):
     name : str, optional
     """
 
-    def __init__(self, amplitude: float, frequency: float, t0: float | None = None, *, name: str = "ricker") -> None:
+    def __init__(
+        self, amplitude: float, frequency: float, t0: float | None = None, *, name: str = "ricker"
+    ) -> None:
         self.amplitude = _positive("amplitude", amplitude, "m/s²")
         self.frequency = _positive("frequency", frequency, "Hz")
         self.t0 = 1.5 / self.frequency if t0 is None else _positive("t0", t0, "s")
@@ -372,7 +378,7 @@ class Ricker(GroundMotion):
         return self.amplitude / (math.pi * self.frequency) * u * np.exp(-(u**2))
 
     def _displacement(self, t: Arr) -> Arr:
-        return -self.amplitude * np.exp(-self._u(t) ** 2) / (2.0 * (math.pi * self.frequency) ** 2)
+        return -self.amplitude * np.exp(-(self._u(t) ** 2)) / (2.0 * (math.pi * self.frequency) ** 2)
 
     @property
     def duration(self) -> float:

@@ -224,7 +224,9 @@ def _parse_at2_line4(path: Path, line: str) -> tuple[int, float]:
     m_n, m_dt = _KW_NPTS.search(line), _KW_DT.search(line)
     if m_n or m_dt:
         if not (m_n and m_dt):
-            raise MotionFileError(f"found {line.strip()!r}; expected both NPTS and DT, as {_AT2_FORMATS}", path, 4)
+            raise MotionFileError(
+                f"found {line.strip()!r}; expected both NPTS and DT, as {_AT2_FORMATS}", path, 4
+            )
         tok_n, tok_dt = m_n.group(1), m_dt.group(1)
     else:
         toks = re.split(r"[\s,]+", line.strip())
@@ -284,10 +286,14 @@ def read_at2(path: str | Path) -> Record:
     path = Path(path)
     lines, digest = _read_text(path)
     if len(lines) < 4:
-        raise MotionFileError(f"truncated header: found {len(lines)} line(s); expected at least 4 header lines", path)
+        raise MotionFileError(
+            f"truncated header: found {len(lines)} line(s); expected at least 4 header lines", path
+        )
     units_m = re.search(r"UNITS\s+OF\s+(\S+)", lines[2], re.IGNORECASE)
     if units_m and units_m.group(1).upper() != "G":
-        raise MotionFileError(f"found units {units_m.group(1)!r}; expected acceleration in units of G", path, 3)
+        raise MotionFileError(
+            f"found units {units_m.group(1)!r}; expected acceleration in units of G", path, 3
+        )
     npts, dt = _parse_at2_line4(path, lines[3])
     values, _ = _parse_values(path, lines, 4)
     if values.size < npts:
@@ -342,7 +348,9 @@ def write_at2(record: Record, path: str | Path, header: str | None = None) -> Pa
 # ---------------------------------------------------------------------------
 # plain tables
 # ---------------------------------------------------------------------------
-def read_table(path: str | Path, dt: float | None = None, units: str = "m/s2", column: int | None = None) -> Record:
+def read_table(
+    path: str | Path, dt: float | None = None, units: str = "m/s2", column: int | None = None
+) -> Record:
     """Read a plain text table of acceleration.
 
     Text after ``#`` or ``%`` is a comment; values are separated by whitespace
@@ -414,21 +422,27 @@ def read_table(path: str | Path, dt: float | None = None, units: str = "m/s2", c
     ncols = data.shape[1]
     if column is None:
         if ncols > 2:
-            raise MotionFileError(f"found {ncols} columns; expected 1 or 2 (pass column= to choose one)", path)
+            raise MotionFileError(
+                f"found {ncols} columns; expected 1 or 2 (pass column= to choose one)", path
+            )
         column = ncols - 1
     if not (0 <= column < ncols):
         raise MotionFileError(f"column={column} requested but the file has {ncols} column(s)", path)
     t0 = 0.0
     if column == 0:
         if dt is None:
-            raise MotionFileError("no time column and no dt given; pass dt= (s) for a single acceleration column", path)
+            raise MotionFileError(
+                "no time column and no dt given; pass dt= (s) for a single acceleration column", path
+            )
         step = dt
     else:
         t = data[:, 0]
         steps = np.diff(t)
         step = (t[-1] - t[0]) / (t.size - 1)
         if not step > 0:
-            raise MotionFileError(f"time column runs from {t[0]} to {t[-1]} s; expected increasing times", path)
+            raise MotionFileError(
+                f"time column runs from {t[0]} to {t[-1]} s; expected increasing times", path
+            )
         bad = np.flatnonzero(np.abs(steps - step) > 1e-6 * step)
         if bad.size:
             j = int(bad[0]) + 1
@@ -440,7 +454,9 @@ def read_table(path: str | Path, dt: float | None = None, units: str = "m/s2", c
         if dt is not None and abs(dt - step) > 1e-6 * step:
             raise MotionFileError(f"time column has dt={step!r} s but dt={dt!r} s was given", path)
         if t[0] < 0:
-            raise MotionFileError(f"time column starts at {t[0]!r} s; expected a start time >= 0", path, rowline[0])
+            raise MotionFileError(
+                f"time column starts at {t[0]!r} s; expected a start time >= 0", path, rowline[0]
+            )
         t0 = float(t[0])
     return Record(
         data[:, column] * UNITS[units], step, t0, name=path.stem, source=str(path),

@@ -179,7 +179,9 @@ def _table_html(df: pd.DataFrame, max_rows: int = MAX_HTML_ROWS) -> tuple[Any, b
     from markupsafe import Markup
 
     shown = df.head(max_rows)
-    numeric = {c: pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]) for c in df.columns}
+    numeric = {
+        c: pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]) for c in df.columns
+    }
     out = ['<table class="data">', "<thead><tr>"]
     for c in df.columns:
         cls = "" if numeric[c] else ' class="text"'
@@ -233,7 +235,9 @@ def _arrow_table(df: pd.DataFrame, meta: Mapping[str, Any]) -> Any:
         d2 = df.copy()
         for c in d2.columns:
             if d2[c].dtype == object:
-                d2[c] = d2[c].map(lambda x: x if x is None or isinstance(x, str) else json.dumps(_jsonable(x), default=str))
+                d2[c] = d2[c].map(
+                    lambda x: x if x is None or isinstance(x, str) else json.dumps(_jsonable(x), default=str)
+                )
         d2.columns = [str(c) for c in d2.columns]
         table = pa.Table.from_pandas(d2, preserve_index=False)
     md = dict(table.schema.metadata or {})
@@ -463,7 +467,9 @@ def write_report(
                 else:
                     # no data table: link the caption to nothing rather than to a missing file
                     csv = ""
-                    sec["notes"].append(md_inline(f"figure {fig.name!r}: its data table {fig.table!r} is missing"))
+                    sec["notes"].append(
+                        md_inline(f"figure {fig.name!r}: its data table {fig.table!r} is missing")
+                    )
                 sec["figures"].append(
                     {
                         "anchor": stem,
@@ -496,7 +502,8 @@ def write_report(
         engine_rows = [
             {
                 "name": n,
-                "versions_short": ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items())) or "versions not recorded",
+                "versions_short": ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items()))
+                or "versions not recorded",
                 "json": _dumps(info),
             }
             for n, info in sorted(engines.items())
@@ -559,7 +566,8 @@ def summary_markdown(
         lines += [f"Command: `{prov['command_line']}`", ""]
     n_bad = sum(_status(r) != "ok" for r in results)
     lines += [
-        f"**{len(results) - n_bad} of {len(results)} sections OK**" + (f", **{n_bad} failed or not run**" if n_bad else ""),
+        f"**{len(results) - n_bad} of {len(results)} sections OK**"
+        + (f", **{n_bad} failed or not run**" if n_bad else ""),
         "",
         "| section | study | status | wall time |",
         "|---|---|---|---|",

@@ -52,13 +52,33 @@ __all__ = ["ALL_CASES", "CLASSES", "ExtremesConfig", "build_cases", "run"]
 
 CLASSES = ("ok", "biased", "drift", "penetration", "nan", "failed", "crash", "timeout", "not_applicable")
 CLASS_COLOURS = {
-    "ok": "#4caf50", "biased": "#ffb300", "drift": "#ff7043", "penetration": "#ab47bc", "nan": "#e53935",
-    "failed": "#8d6e63", "crash": "#212121", "timeout": "#546e7a", "not_applicable": "#e0e0e0",
+    "ok": "#4caf50",
+    "biased": "#ffb300",
+    "drift": "#ff7043",
+    "penetration": "#ab47bc",
+    "nan": "#e53935",
+    "failed": "#8d6e63",
+    "crash": "#212121",
+    "timeout": "#546e7a",
+    "not_applicable": "#e0e0e0",
 }
 ALL_CASES = (
-    "slender_2deg", "slender_10deg", "slender_45deg", "size_5cm", "size_50m", "mass_1kg", "mass_1e6kg",
-    "dt_1e-2", "dt_1e-5", "friction_0.05", "friction_10", "freq_50Hz", "amplitude_0.01pct",
-    "basal_1000_nodes", "offset_10km", "record_600s",
+    "slender_2deg",
+    "slender_10deg",
+    "slender_45deg",
+    "size_5cm",
+    "size_50m",
+    "mass_1kg",
+    "mass_1e6kg",
+    "dt_1e-2",
+    "dt_1e-5",
+    "friction_0.05",
+    "friction_10",
+    "freq_50Hz",
+    "amplitude_0.01pct",
+    "basal_1000_nodes",
+    "offset_10km",
+    "record_600s",
 )
 HOUSNER = 5.638  # m/s², conformance.HOUSNER_THRESHOLD
 
@@ -105,8 +125,11 @@ def _excitation(amplitude: float, frequency: float = 1.0) -> dict[str, Any]:
     return {"type": "half_sine", "amplitude": amplitude, "frequency": frequency, "phase": "housner_uplift"}
 
 
-def fine_base_box_mesh(half: tuple[float, float, float] = (0.2, 0.2, 0.6), n: int = 33,
-                       offset: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Any:
+def fine_base_box_mesh(
+    half: tuple[float, float, float] = (0.2, 0.2, 0.6),
+    n: int = 33,
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> Any:
     """A closed box mesh whose base is an n×n vertex grid (the sides are fans to the top edge)."""
     import trimesh
 
@@ -126,10 +149,10 @@ def fine_base_box_mesh(half: tuple[float, float, float] = (0.2, 0.2, 0.6), n: in
     faces += [[top0, top0 + 1, top0 + 2], [top0, top0 + 2, top0 + 3]]
     # base boundary walks: (boundary vertex indices along the edge, its two top corners)
     sides = [
-        ([idx(i, 0) for i in range(n)], top0, top0 + 1),          # y = -by, x from -bx to bx
+        ([idx(i, 0) for i in range(n)], top0, top0 + 1),  # y = -by, x from -bx to bx
         ([idx(n - 1, j) for j in range(n)], top0 + 1, top0 + 2),  # x = +bx, y up
         ([idx(i, n - 1) for i in range(n - 1, -1, -1)], top0 + 2, top0 + 3),  # y = +by, x down
-        ([idx(0, j) for j in range(n - 1, -1, -1)], top0 + 3, top0),          # x = -bx, y down
+        ([idx(0, j) for j in range(n - 1, -1, -1)], top0 + 3, top0),  # x = -bx, y down
     ]
     for edge, ta, tb in sides:
         for k in range(n - 1):
@@ -163,66 +186,163 @@ def build_cases(names: Sequence[str], tmp: Path) -> list[Case]:
             a = math.radians(deg)
             b, h = r_block * math.sin(a), r_block * math.cos(a)
             u = 9.81 * math.tan(a)
-            scn = _block(name=f"extreme_{name}", rock={"shape": "box", "half_extents": [b, 0.2, h], "density": 2400.0},
-                         excitation=_excitation(1.5 * u))
-            out.append(Case(name, "slenderness", "bracket", scn, f"α = {deg:g}° at R = {r_block:.3f} m",
-                            search={"lo": 1.01 * u, "hi": 8.0 * u, "n_grid": 8, "rel_tol": 2e-4}))
+            scn = _block(
+                name=f"extreme_{name}",
+                rock={"shape": "box", "half_extents": [b, 0.2, h], "density": 2400.0},
+                excitation=_excitation(1.5 * u),
+            )
+            out.append(
+                Case(
+                    name,
+                    "slenderness",
+                    "bracket",
+                    scn,
+                    f"α = {deg:g}° at R = {r_block:.3f} m",
+                    search={"lo": 1.01 * u, "hi": 8.0 * u, "n_grid": 8, "rel_tol": 2e-4},
+                )
+            )
         elif name.startswith("size_"):
             s = {"size_5cm": 0.05, "size_50m": 50.0}[name]
             k = s / 1.2
             sk = math.sqrt(k)
-            scn = _block(name=f"extreme_{name}", duration=5.0 * sk, settle_time=0.5 * sk,
-                         output_dt=min(1e-2, 1e-3 * sk),
-                         rock={"shape": "box", "half_extents": [0.2 * k, 0.2 * k, 0.6 * k], "density": 2400.0},
-                         excitation=_excitation(HOUSNER, 1.0 / sk))
-            out.append(Case(name, "size", "bracket", scn,
-                            f"height {s:g} m, pulse frequency {1 / sk:.3g} Hz (ω/p fixed: a_ref = 5.638 by similarity)",
-                            a_ref=HOUSNER))
+            scn = _block(
+                name=f"extreme_{name}",
+                duration=5.0 * sk,
+                settle_time=0.5 * sk,
+                output_dt=min(1e-2, 1e-3 * sk),
+                rock={"shape": "box", "half_extents": [0.2 * k, 0.2 * k, 0.6 * k], "density": 2400.0},
+                excitation=_excitation(HOUSNER, 1.0 / sk),
+            )
+            out.append(
+                Case(
+                    name,
+                    "size",
+                    "bracket",
+                    scn,
+                    f"height {s:g} m, pulse frequency {1 / sk:.3g} Hz (ω/p fixed: a_ref = 5.638 by similarity)",
+                    a_ref=HOUSNER,
+                )
+            )
         elif name.startswith("mass_"):
             m = {"mass_1kg": 1.0, "mass_1e6kg": 1e6}[name]
-            scn = _block(name=f"extreme_{name}", rock={"shape": "box", "half_extents": [0.2, 0.2, 0.6], "mass": m})
-            out.append(Case(name, "mass", "bracket", scn, f"mass {m:g} kg (threshold independent of mass)",
-                            a_ref=HOUSNER))
+            scn = _block(
+                name=f"extreme_{name}", rock={"shape": "box", "half_extents": [0.2, 0.2, 0.6], "mass": m}
+            )
+            out.append(
+                Case(
+                    name,
+                    "mass",
+                    "bracket",
+                    scn,
+                    f"mass {m:g} kg (threshold independent of mass)",
+                    a_ref=HOUSNER,
+                )
+            )
         elif name == "dt_1e-2":
-            out.append(Case(name, "timestep", "bracket", _block(name="extreme_dt_coarse"), "timestep 1e-2 s",
-                            a_ref=HOUSNER, settings={"timestep": 1e-2}, needs_timestep=True))
+            out.append(
+                Case(
+                    name,
+                    "timestep",
+                    "bracket",
+                    _block(name="extreme_dt_coarse"),
+                    "timestep 1e-2 s",
+                    a_ref=HOUSNER,
+                    settings={"timestep": 1e-2},
+                    needs_timestep=True,
+                )
+            )
         elif name == "dt_1e-5":
             scn = _block(name="extreme_dt_fine", duration=1.5, excitation=_excitation(0.9 * HOUSNER))
-            out.append(Case(name, "timestep", "peak", scn, "timestep 1e-5 s, 1.5 s at 0.9·5.638: peak |θ| vs housner",
-                            settings={"timestep": 1e-5}, needs_timestep=True, timeout_factor=3.0))
+            out.append(
+                Case(
+                    name,
+                    "timestep",
+                    "peak",
+                    scn,
+                    "timestep 1e-5 s, 1.5 s at 0.9·5.638: peak |θ| vs housner",
+                    settings={"timestep": 1e-5},
+                    needs_timestep=True,
+                    timeout_factor=3.0,
+                )
+            )
         elif name.startswith("friction_"):
             mu = float(name.split("_")[1])
             if mu < 1 / 3:
-                scn = _block(name=f"extreme_{name}", contact={"friction_static": mu, "restitution": 0.0},
-                             excitation=_excitation(1.01 * HOUSNER))
-                out.append(Case(name, "friction", "slide", scn, f"μ = {mu:g} < tan α = 1/3: must slide, not rock",
-                                needs_sliding=True))
+                scn = _block(
+                    name=f"extreme_{name}",
+                    contact={"friction_static": mu, "restitution": 0.0},
+                    excitation=_excitation(1.01 * HOUSNER),
+                )
+                out.append(
+                    Case(
+                        name,
+                        "friction",
+                        "slide",
+                        scn,
+                        f"μ = {mu:g} < tan α = 1/3: must slide, not rock",
+                        needs_sliding=True,
+                    )
+                )
             else:
                 scn = _block(name=f"extreme_{name}", contact={"friction_static": mu, "restitution": 0.0})
                 out.append(Case(name, "friction", "bracket", scn, f"μ = {mu:g}", a_ref=HOUSNER))
         elif name == "freq_50Hz":
             u = 9.81 / 3
             scn = _block(name="extreme_freq50", excitation=_excitation(50 * u, 50.0))
-            out.append(Case(name, "frequency", "bracket", scn, "half-sine at 50 Hz (ω/p ≈ 92)",
-                            search={"lo": 1.05 * u, "hi": 600.0 * u, "n_grid": 12, "rel_tol": 2e-4}))
+            out.append(
+                Case(
+                    name,
+                    "frequency",
+                    "bracket",
+                    scn,
+                    "half-sine at 50 Hz (ω/p ≈ 92)",
+                    search={"lo": 1.05 * u, "hi": 600.0 * u, "n_grid": 12, "rel_tol": 2e-4},
+                )
+            )
         elif name == "amplitude_0.01pct":
-            out.append(Case(name, "amplitude", "bracket", _block(name="extreme_amp"),
-                            "±0.01 % around the housner threshold (outcome must flip)",
-                            search={"lo": 5.60, "hi": 5.68, "n_grid": 2, "rel_tol": 2e-6}, band=1e-4))
+            out.append(
+                Case(
+                    name,
+                    "amplitude",
+                    "bracket",
+                    _block(name="extreme_amp"),
+                    "±0.01 % around the housner threshold (outcome must flip)",
+                    search={"lo": 5.60, "hi": 5.68, "n_grid": 2, "rel_tol": 2e-6},
+                    band=1e-4,
+                )
+            )
         elif name == "basal_1000_nodes":
             path = tmp / "fine_base_box.obj"
             mesh = fine_base_box_mesh()
             mesh.export(path)
             n_base = int(np.sum(np.abs(mesh.vertices[:, 2]) < 1e-12))
-            scn = _block(name="extreme_fine_base", rock={"shape": "mesh", "path": str(path), "density": 2400.0})
-            out.append(Case(name, "contact nodes", "bracket", scn, f"box mesh with {n_base} basal vertices",
-                            a_ref=HOUSNER))
+            scn = _block(
+                name="extreme_fine_base", rock={"shape": "mesh", "path": str(path), "density": 2400.0}
+            )
+            out.append(
+                Case(
+                    name,
+                    "contact nodes",
+                    "bracket",
+                    scn,
+                    f"box mesh with {n_base} basal vertices",
+                    a_ref=HOUSNER,
+                )
+            )
         elif name == "offset_10km":
             path = tmp / "box_10km.obj"
             _box_mesh_offset((1e4, 0.0, 0.0)).export(path, digits=10)
             scn = _block(name="extreme_offset", rock={"shape": "mesh", "path": str(path), "density": 2400.0})
-            out.append(Case(name, "position", "bracket", scn, "box mesh with vertices 10 km from the origin",
-                            a_ref=HOUSNER))
+            out.append(
+                Case(
+                    name,
+                    "position",
+                    "bracket",
+                    scn,
+                    "box mesh with vertices 10 km from the origin",
+                    a_ref=HOUSNER,
+                )
+            )
         elif name == "record_600s":
             path = tmp / "noise_600s.txt"
             rng = np.random.default_rng(0)
@@ -230,10 +350,22 @@ def build_cases(names: Sequence[str], tmp: Path) -> list[Case]:
             x = np.convolve(rng.standard_normal(n), np.ones(5) / 5, mode="same")
             x *= 0.3 * 9.81 / 3 / np.max(np.abs(x))  # peak 30 % of the uplift acceleration
             np.savetxt(path, x)
-            scn = _block(name="extreme_record600", duration=600.0, output_dt=0.01,
-                         excitation={"type": "record", "path": str(path), "dt": dt, "units": "m/s2"})
-            out.append(Case(name, "duration", "rest", scn, "600 s of noise at 30 % of the uplift acceleration",
-                            timeout_factor=5.0))
+            scn = _block(
+                name="extreme_record600",
+                duration=600.0,
+                output_dt=0.01,
+                excitation={"type": "record", "path": str(path), "dt": dt, "units": "m/s2"},
+            )
+            out.append(
+                Case(
+                    name,
+                    "duration",
+                    "rest",
+                    scn,
+                    "600 s of noise at 30 % of the uplift acceleration",
+                    timeout_factor=5.0,
+                )
+            )
         else:
             raise ValueError(f"unknown extremes case {name!r}; expected one of {list(ALL_CASES)}")
     return out
@@ -244,8 +376,10 @@ def _runs_for(case: Case) -> list[tuple[str, Scenario]]:
     if case.kind == "bracket":
         assert case.a_ref is not None
         lo, hi = (1 - case.band) * case.a_ref, (1 + case.band) * case.a_ref
-        return [("below", case.scenario.with_value("excitation.amplitude", lo)),
-                ("above", case.scenario.with_value("excitation.amplitude", hi))]
+        return [
+            ("below", case.scenario.with_value("excitation.amplitude", lo)),
+            ("above", case.scenario.with_value("excitation.amplitude", hi)),
+        ]
     return [("run", case.scenario)]
 
 
@@ -303,8 +437,13 @@ def classify(case: Case, res: Any, ref_peak: float | None, pen_fraction: float) 
 
 
 # ------------------------------------------------------------------------ run
-def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str], *,
-        progress: Callable[[str, float], None] | None = None) -> StudyResult:
+def run(
+    config: ExtremesConfig,
+    scenario: Scenario | None,
+    engines: Sequence[str],
+    *,
+    progress: Callable[[str, float], None] | None = None,
+) -> StudyResult:
     """Run the matrix. ``scenario`` is not used to build cases (they derive from the Housner
     block) and may be None; it is recorded in the provenance when given."""
     import pandas as pd
@@ -352,13 +491,32 @@ def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str
         for c in cases:
             data, src = scenario_payload(c.scenario)
             if c.search is not None:
-                ref_tasks.append(CallTask("pbr_xval.study.tradeoff:threshold_point", {
-                    "scenario": data, "source": src, "engine": cfg.reference_engine, "settings": {},
-                    "param": "excitation.amplitude", **c.search}, tag=("search", c.name),
-                    timeout=cfg.timeout * 5))
+                ref_tasks.append(
+                    CallTask(
+                        "pbr_xval.study.tradeoff:threshold_point",
+                        {
+                            "scenario": data,
+                            "source": src,
+                            "engine": cfg.reference_engine,
+                            "settings": {},
+                            "param": "excitation.amplitude",
+                            **c.search,
+                        },
+                        tag=("search", c.name),
+                        timeout=cfg.timeout * 5,
+                    )
+                )
             if c.kind == "peak":
-                ref_tasks.append(SimTask.single(data, cfg.reference_engine, {}, source=src, tag=("peak", c.name),
-                                                timeout=cfg.timeout * 2))
+                ref_tasks.append(
+                    SimTask.single(
+                        data,
+                        cfg.reference_engine,
+                        {},
+                        source=src,
+                        tag=("peak", c.name),
+                        timeout=cfg.timeout * 2,
+                    )
+                )
         ref_peak: dict[str, float] = {}
         ref_fail: dict[str, str] = {}
         by_name = {c.name: c for c in cases}
@@ -371,8 +529,10 @@ def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str
                 if r.ok and r.value.get("minimum") is not None and not r.value.get("toppled_at_lo"):
                     by_name[cname].a_ref = float(r.value["minimum"])
                     result.provenance.setdefault("reference_thresholds", {})[cname] = {
-                        "value_m_s2": r.value["minimum"], "tolerance_m_s2": r.value["tolerance"],
-                        "engine": cfg.reference_engine}
+                        "value_m_s2": r.value["minimum"],
+                        "tolerance_m_s2": r.value["tolerance"],
+                        "engine": cfg.reference_engine,
+                    }
                 else:
                     ref_fail[cname] = f"reference search failed: {r.message or r.value}"
             elif r.ok:
@@ -390,8 +550,17 @@ def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str
                 if c.name in ref_fail:
                     reason = ref_fail[c.name]
                 if reason:
-                    rows.append({"case": c.name, "group": c.group, "engine": label, "class": "not_applicable",
-                                 "detail": reason, "wall_s": 0.0, "reference_m_s2": c.a_ref})
+                    rows.append(
+                        {
+                            "case": c.name,
+                            "group": c.group,
+                            "engine": label,
+                            "class": "not_applicable",
+                            "detail": reason,
+                            "wall_s": 0.0,
+                            "reference_m_s2": c.a_ref,
+                        }
+                    )
                     done += 1
                     continue
                 settings = dict(cfg.settings.get(label, {}))
@@ -407,15 +576,23 @@ def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str
             c = by_name[cname]
             cls, detail = classify(c, r, ref_peak.get(cname), cfg.penetration_fraction)
             runs = r.runs
-            row = {"case": cname, "group": c.group, "engine": label, "class": cls, "detail": detail,
-                   "wall_s": r.wall_s, "reference_m_s2": c.a_ref}
+            row = {
+                "case": cname,
+                "group": c.group,
+                "engine": label,
+                "class": cls,
+                "detail": detail,
+                "wall_s": r.wall_s,
+                "reference_m_s2": c.a_ref,
+            }
             if runs:
                 row["max_penetration_m"] = max((x.get("max_penetration_m") or 0.0) for x in runs)
                 row["peak_tilt_rad"] = max((x.get("peak_tilt_rad") or 0.0) for x in runs)
                 row["sim_wall_s"] = sum((x.get("wall_time_s") or 0.0) for x in runs)
                 if runs[0].get("settings"):
-                    result.provenance["engines"].setdefault(label, {}).setdefault("settings", {})[cname] = runs[0][
-                        "settings"]
+                    result.provenance["engines"].setdefault(label, {}).setdefault("settings", {})[cname] = (
+                        runs[0]["settings"]
+                    )
             if r.signal:
                 row["detail"] = f"{detail} (signal {r.signal})"
             rows.append(row)
@@ -428,14 +605,20 @@ def run(config: ExtremesConfig, scenario: Scenario | None, engines: Sequence[str
     if not df.empty:
         order = {n: i for i, n in enumerate(names)}
         eorder = {labels[e]: i for i, e in enumerate(engs)}
-        df = df.sort_values(by=["case", "engine"], key=lambda s: s.map(order) if s.name == "case" else s.map(eorder))
+        df = df.sort_values(
+            by=["case", "engine"], key=lambda s: s.map(order) if s.name == "case" else s.map(eorder)
+        )
         df = df.reset_index(drop=True)
     result.tables["extremes_matrix"] = df
     counts = df["class"].value_counts().to_dict() if not df.empty else {}
-    result.headline = {"classes": {k: int(v) for k, v in counts.items()},
-                       "cells": {f"{r['case']}|{r['engine']}": r["class"] for _, r in df.iterrows()}}
-    result.summary.append(f"{len(df)} cells ({len(names)} cases × {len(engs)} engines): "
-                          + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+    result.headline = {
+        "classes": {k: int(v) for k, v in counts.items()},
+        "cells": {f"{r['case']}|{r['engine']}": r["class"] for _, r in df.iterrows()},
+    }
+    result.summary.append(
+        f"{len(df)} cells ({len(names)} cases × {len(engs)} engines): "
+        + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+    )
     for _, r in df.iterrows():
         if r["class"] not in ("ok", "not_applicable"):
             result.summary.append(f"{r['engine']} · {r['case']}: **{r['class']}** — {r['detail']}")
@@ -487,6 +670,10 @@ def _figure(df: Any, cases: list[str], engines: list[str]) -> Figure:
     ax.set_yticks(range(len(cases)), cases)
     ax.xaxis.tick_top()
     fig.tight_layout()
-    return Figure("extremes_matrix", fig, "extremes_matrix",
-                  "Each cell: how an engine behaves in an extreme case (ok, biased > band from the reference, "
-                  "drift, penetration, nan, crash, timeout, n/a).")
+    return Figure(
+        "extremes_matrix",
+        fig,
+        "extremes_matrix",
+        "Each cell: how an engine behaves in an extreme case (ok, biased > band from the reference, "
+        "drift, penetration, nan, crash, timeout, n/a).",
+    )

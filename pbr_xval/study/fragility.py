@@ -60,8 +60,9 @@ class FragilityConfig(BaseModel):
     max_workers: int = Field(1, ge=1)
 
 
-def run_cell(scenario_data: dict[str, Any], base_dir: str, engine: str, settings: dict[str, Any] | None,
-             clamp: float) -> dict[str, Any]:
+def run_cell(
+    scenario_data: dict[str, Any], base_dir: str, engine: str, settings: dict[str, Any] | None, clamp: float
+) -> dict[str, Any]:
     """Simulate one cell; never raises. Returns status, message, toppled, peak_com_disp_m, wall_s, settings, versions.
 
     ``scenario_data`` is ``Scenario.model_dump(mode="json")``; ``base_dir`` resolves relative paths.
@@ -74,8 +75,15 @@ def run_cell(scenario_data: dict[str, Any], base_dir: str, engine: str, settings
     from pbr_xval.scene import compile_scene
 
     t0 = time.perf_counter()
-    out: dict[str, Any] = {"status": "ok", "message": "", "toppled": False, "peak_com_disp_m": float("nan"),
-                           "wall_s": float("nan"), "settings": {}, "versions": {}}
+    out: dict[str, Any] = {
+        "status": "ok",
+        "message": "",
+        "toppled": False,
+        "peak_com_disp_m": float("nan"),
+        "wall_s": float("nan"),
+        "settings": {},
+        "versions": {},
+    }
     try:
         scn = scenario_from_dict(scenario_data)
         scn._base_dir = Path(base_dir)
@@ -85,7 +93,11 @@ def run_cell(scenario_data: dict[str, Any], base_dir: str, engine: str, settings
         kind = "not available" if isinstance(exc, EngineNotAvailable) else "not applicable"
         return out | {"status": "skipped", "message": f"{kind}: {exc}", "wall_s": time.perf_counter() - t0}
     except Exception as exc:
-        return out | {"status": "failed", "message": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}
+        return out | {
+            "status": "failed",
+            "message": f"{type(exc).__name__}: {exc}",
+            "wall_s": time.perf_counter() - t0,
+        }
     out.update(wall_s=traj.wall_time, settings=traj.settings, versions=traj.versions)
     if not traj.ok:
         return out | {"status": "failed", "message": traj.message}
@@ -157,8 +169,15 @@ def run(
     if config.max_workers <= 1:
         for i, (_, eng, _, _, data) in enumerate(jobs):
             if eng in skip_engine:
-                results[i] = {"status": "skipped", "message": skip_engine[eng], "toppled": False,
-                              "peak_com_disp_m": float("nan"), "wall_s": float("nan"), "settings": {}, "versions": {}}
+                results[i] = {
+                    "status": "skipped",
+                    "message": skip_engine[eng],
+                    "toppled": False,
+                    "peak_com_disp_m": float("nan"),
+                    "wall_s": float("nan"),
+                    "settings": {},
+                    "versions": {},
+                }
             else:
                 results[i] = run_cell(data, base_dir, eng, config.settings.get(eng), config.clamp)
                 if results[i]["status"] == "skipped" and results[i]["message"].startswith("not available"):
@@ -170,16 +189,24 @@ def run(
 
         ctx = mp.get_context("spawn")
         with ProcessPoolExecutor(max_workers=config.max_workers, mp_context=ctx) as pool:
-            futs = {pool.submit(run_cell, data, base_dir, eng, config.settings.get(eng), config.clamp): i
-                    for i, (_, eng, _, _, data) in enumerate(jobs)}
+            futs = {
+                pool.submit(run_cell, data, base_dir, eng, config.settings.get(eng), config.clamp): i
+                for i, (_, eng, _, _, data) in enumerate(jobs)
+            }
             for k, fut in enumerate(as_completed(futs)):
                 i = futs[fut]
                 try:
                     results[i] = fut.result()
                 except Exception as exc:  # a crashed worker process
-                    results[i] = {"status": "failed", "message": f"{type(exc).__name__}: {exc}", "toppled": False,
-                                  "peak_com_disp_m": float("nan"), "wall_s": float("nan"), "settings": {},
-                                  "versions": {}}
+                    results[i] = {
+                        "status": "failed",
+                        "message": f"{type(exc).__name__}: {exc}",
+                        "toppled": False,
+                        "peak_com_disp_m": float("nan"),
+                        "wall_s": float("nan"),
+                        "settings": {},
+                        "versions": {},
+                    }
                 report(i, k + 1)
 
     rows = []
@@ -187,9 +214,21 @@ def run(
     versions_used: dict[str, Any] = {}
     for (label, eng, xv, yv, _), res in zip(jobs, results, strict=True):
         assert res is not None
-        rows.append({"variant": label, "engine": eng, "x": xv, "y": yv, "x_param": config.x, "y_param": config.y,
-                     "status": res["status"], "message": res["message"], "toppled": bool(res["toppled"]),
-                     "peak_com_disp_m": res["peak_com_disp_m"], "wall_s": res["wall_s"]})
+        rows.append(
+            {
+                "variant": label,
+                "engine": eng,
+                "x": xv,
+                "y": yv,
+                "x_param": config.x,
+                "y_param": config.y,
+                "status": res["status"],
+                "message": res["message"],
+                "toppled": bool(res["toppled"]),
+                "peak_com_disp_m": res["peak_com_disp_m"],
+                "wall_s": res["wall_s"],
+            }
+        )
         if res["status"] == "ok":
             settings_used.setdefault(eng, res["settings"])
             versions_used.setdefault(eng, res["versions"])
@@ -202,18 +241,25 @@ def run(
             notes.append(f"{eng}: skipped ({sub['message'].iloc[0]})")
         elif (sub["status"] == "failed").any():
             k = int((sub["status"] == "failed").sum())
-            notes.append(f"{eng}: FAILED in {k} of {len(sub)} cells (first: {sub[sub['status'] == 'failed']['message'].iloc[0]})")
+            notes.append(
+                f"{eng}: FAILED in {k} of {len(sub)} cells (first: {sub[sub['status'] == 'failed']['message'].iloc[0]})"
+            )
 
     agreement = _agreement(cells, ref, [_variant_label(v) for v in variants], order)
     figs = [_figure(cells, agreement, config, [_variant_label(v) for v in variants], run_engines, ref)]
 
-    summary = [f"**Fragility maps** of `{scenario.name}` over {config.x} × {config.y} "
-               f"({len(config.x_values)}×{len(config.y_values)} cells); reference: {ref or 'none'}", "",
-               "| variant | engine | agreement | mean abs Δ peak disp (m) | disagreeing cells | wall s |",
-               "|---|---|---|---|---|---|"]
+    summary = [
+        f"**Fragility maps** of `{scenario.name}` over {config.x} × {config.y} "
+        f"({len(config.x_values)}×{len(config.y_values)} cells); reference: {ref or 'none'}",
+        "",
+        "| variant | engine | agreement | mean abs Δ peak disp (m) | disagreeing cells | wall s |",
+        "|---|---|---|---|---|---|",
+    ]
     for _, r in agreement.iterrows():
-        summary.append(f"| {r['variant']} | {r['engine']} | {_fmt(r['agreement'], '.0%')} | "
-                       f"{_fmt(r['mean_abs_dpeak_m'], '.3f')} | {r['n_disagree']} | {_fmt(r['wall_s'], '.1f')} |")
+        summary.append(
+            f"| {r['variant']} | {r['engine']} | {_fmt(r['agreement'], '.0%')} | "
+            f"{_fmt(r['mean_abs_dpeak_m'], '.3f')} | {r['n_disagree']} | {_fmt(r['wall_s'], '.1f')} |"
+        )
     headline: dict[str, Any] = {}
     for _, r in agreement.iterrows():
         headline.setdefault(r["engine"], {})[r["variant"]] = _json_num(r["agreement"])
@@ -253,17 +299,31 @@ def _fmt(x: Any, spec: str) -> str:
 def _agreement(cells: Any, ref: str | None, variants: list[str], engines: list[str]) -> Any:
     import pandas as pd
 
-    cols = ["variant", "engine", "n_cells", "n_compared", "agreement", "n_disagree", "mean_abs_dpeak_m",
-            "toppled_fraction", "wall_s"]
+    cols = [
+        "variant",
+        "engine",
+        "n_cells",
+        "n_compared",
+        "agreement",
+        "n_disagree",
+        "mean_abs_dpeak_m",
+        "toppled_fraction",
+        "wall_s",
+    ]
     rows = []
     for var in variants:
         base = cells[(cells["variant"] == var) & (cells["engine"] == ref)] if ref else None
         for eng in engines:
             sub = cells[(cells["variant"] == var) & (cells["engine"] == eng)]
-            row: dict[str, Any] = {"variant": var, "engine": eng, "n_cells": len(sub),
-                                   "toppled_fraction": float(sub.loc[sub["status"] == "ok", "toppled"].mean())
-                                   if (sub["status"] == "ok").any() else float("nan"),
-                                   "wall_s": float(sub["wall_s"].sum(skipna=True))}
+            row: dict[str, Any] = {
+                "variant": var,
+                "engine": eng,
+                "n_cells": len(sub),
+                "toppled_fraction": float(sub.loc[sub["status"] == "ok", "toppled"].mean())
+                if (sub["status"] == "ok").any()
+                else float("nan"),
+                "wall_s": float(sub["wall_s"].sum(skipna=True)),
+            }
             if base is None or base.empty:
                 row.update(n_compared=0, agreement=float("nan"), n_disagree=0, mean_abs_dpeak_m=float("nan"))
                 rows.append(row)
@@ -277,14 +337,16 @@ def _agreement(cells: Any, ref: str | None, variants: list[str], engines: list[s
                 agreement=float(same.mean()) if len(m) else float("nan"),
                 n_disagree=int((~same).sum()),
                 mean_abs_dpeak_m=float((stand["peak_com_disp_m"] - stand["peak_com_disp_m_ref"]).abs().mean())
-                if len(stand) else float("nan"),
+                if len(stand)
+                else float("nan"),
             )
             rows.append(row)
     return pd.DataFrame(rows, columns=cols)
 
 
-def _figure(cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str], engines: list[str],
-            ref: str | None) -> Figure:
+def _figure(
+    cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str], engines: list[str], ref: str | None
+) -> Figure:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -295,8 +357,9 @@ def _figure(cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str
     ys = np.asarray(sorted(set(cfg.y_values)), dtype=float)
     xe, ye = _edges(xs), _edges(ys)
     nr, nc = len(variants), len(engines)
-    fig, axes = plt.subplots(nr, nc, figsize=(3.6 * nc + 1.2, 3.0 * nr + 0.6), squeeze=False,
-                             layout="constrained")
+    fig, axes = plt.subplots(
+        nr, nc, figsize=(3.6 * nc + 1.2, 3.0 * nr + 0.6), squeeze=False, layout="constrained"
+    )
     vmax = 1.0 if cfg.metric == "toppled" else cfg.clamp
     mesh = None
     for i, var in enumerate(variants):
@@ -312,29 +375,53 @@ def _figure(cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str
                 ix, iy = int(np.searchsorted(xs, r["x"])), int(np.searchsorted(ys, r["y"]))
                 z[iy, ix] = float(r["toppled"]) if cfg.metric == "toppled" else r["peak_com_disp_m"]
                 top[iy, ix] = bool(r["toppled"])
-            mesh = ax.pcolormesh(xe, ye, np.ma.masked_invalid(z), cmap="viridis", vmin=0.0, vmax=vmax,
-                                 shading="flat")
+            mesh = ax.pcolormesh(
+                xe, ye, np.ma.masked_invalid(z), cmap="viridis", vmin=0.0, vmax=vmax, shading="flat"
+            )
             # toppling region: hatched
             for iy in range(ys.size):
                 for ix in range(xs.size):
                     if top[iy, ix]:
-                        ax.add_patch(Rectangle((xe[ix], ye[iy]), xe[ix + 1] - xe[ix], ye[iy + 1] - ye[iy],
-                                               fill=False, hatch="//", edgecolor="w", lw=0))
+                        ax.add_patch(
+                            Rectangle(
+                                (xe[ix], ye[iy]),
+                                xe[ix + 1] - xe[ix],
+                                ye[iy + 1] - ye[iy],
+                                fill=False,
+                                hatch="//",
+                                edgecolor="w",
+                                lw=0,
+                            )
+                        )
             # cells where the engine disagrees with the reference: red outline
             if refsub is not None and eng != ref and not refsub.empty:
                 mm = sub.merge(refsub, on=["x", "y"], suffixes=("", "_ref"))
                 for _, r in mm.iterrows():
                     if r["status"] == "ok" and r["status_ref"] == "ok" and r["toppled"] != r["toppled_ref"]:
                         ix, iy = int(np.searchsorted(xs, r["x"])), int(np.searchsorted(ys, r["y"]))
-                        ax.add_patch(Rectangle((xe[ix], ye[iy]), xe[ix + 1] - xe[ix], ye[iy + 1] - ye[iy],
-                                               fill=False, edgecolor="r", lw=2.0))
+                        ax.add_patch(
+                            Rectangle(
+                                (xe[ix], ye[iy]),
+                                xe[ix + 1] - xe[ix],
+                                ye[iy + 1] - ye[iy],
+                                fill=False,
+                                edgecolor="r",
+                                lw=2.0,
+                            )
+                        )
             ag = agreement[(agreement["variant"] == var) & (agreement["engine"] == eng)]
             tag = ""
             if eng != ref and len(ag) and _json_num(ag["agreement"].iloc[0]) is not None:
                 tag = f" — agree {ag['agreement'].iloc[0]:.0%}"
             if (sub["status"] != "ok").all():
-                ax.text(0.5, 0.5, str(sub["status"].iloc[0]) if len(sub) else "no data", transform=ax.transAxes,
-                        ha="center", va="center")
+                ax.text(
+                    0.5,
+                    0.5,
+                    str(sub["status"].iloc[0]) if len(sub) else "no data",
+                    transform=ax.transAxes,
+                    ha="center",
+                    va="center",
+                )
             ax.set_title(f"{eng}{' (ref)' if eng == ref else ''}{tag}\n{var}", fontsize=8)
             if i == nr - 1:
                 ax.set_xlabel(cfg.x)
@@ -342,15 +429,22 @@ def _figure(cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str
                 ax.set_ylabel(cfg.y)
     if mesh is not None:
         cb = fig.colorbar(mesh, ax=axes, shrink=0.8)
-        cb.set_label("toppled" if cfg.metric == "toppled" else f"peak COM displacement [m] (clamped at {cfg.clamp:g})")
+        cb.set_label(
+            "toppled" if cfg.metric == "toppled" else f"peak COM displacement [m] (clamped at {cfg.clamp:g})"
+        )
     return Figure(
         name="fragility_maps",
         figure=fig,
         table="fragility_cells",
-        caption=("Rows: variants; columns: engines. Colour: "
-                 + ("toppled (1) or not (0)" if cfg.metric == "toppled"
-                    else f"peak horizontal COM displacement, clamped at {cfg.clamp:g} m (toppled = clamp)")
-                 + "; hatched: toppled; red outline: the engine disagrees with the reference on toppling."),
+        caption=(
+            "Rows: variants; columns: engines. Colour: "
+            + (
+                "toppled (1) or not (0)"
+                if cfg.metric == "toppled"
+                else f"peak horizontal COM displacement, clamped at {cfg.clamp:g} m (toppled = clamp)"
+            )
+            + "; hatched: toppled; red outline: the engine disagrees with the reference on toppling."
+        ),
     )
 
 

@@ -116,8 +116,9 @@ def impact_times(t: np.ndarray, theta: np.ndarray, tol: float, n: int | None = N
     return np.asarray(out)
 
 
-def energy_drift(traj: Trajectory, scene: Any, impacts: np.ndarray, *, margin: int = 3,
-                 min_energy: float = 0.01) -> float:
+def energy_drift(
+    traj: Trajectory, scene: Any, impacts: np.ndarray, *, margin: int = 3, min_energy: float = 0.01
+) -> float:
     """Largest relative change of the rock's energy between impacts (see the module docstring).
 
     E = ½ m |v|² + ½ ωᵀ I_w ω + m g z + W, with v from finite differences of the COM, I_w the
@@ -293,15 +294,17 @@ def run(
         if q is None or traj is None:
             rows.append(row)
             continue
-        row.update({
-            "profile": str(traj.settings.get("profile", "")),
-            "toppled": traj.toppled,
-            "toppled_at_s": _nan(traj.toppled_at),
-            "peak_theta_rad": q["peak"],
-            "peak_theta_over_alpha": q["peak"] / a_ref,
-            "uplift_t_s": q["uplift"],
-            "uplift_event_t_s": q["uplift_event"],
-        })
+        row.update(
+            {
+                "profile": str(traj.settings.get("profile", "")),
+                "toppled": traj.toppled,
+                "toppled_at_s": _nan(traj.toppled_at),
+                "peak_theta_rad": q["peak"],
+                "peak_theta_over_alpha": q["peak"] / a_ref,
+                "uplift_t_s": q["uplift"],
+                "uplift_event_t_s": q["uplift_event"],
+            }
+        )
         for i in range(N_IMPACTS):
             row[f"impact{i + 1}_t_s"] = float(q["impacts"][i]) if q["impacts"].size > i else float("nan")
         for i in range(N_IMPACTS):
@@ -314,14 +317,18 @@ def run(
             th_ref = _interp(ref.t, ref_q["theta"], traj.t[sel])
             diff = q["theta"][sel] - th_ref
             diff = diff[np.isfinite(diff)]
-            row["rms_theta_err_to_impact1_rad"] = float(np.sqrt(np.mean(diff**2))) if diff.size else float("nan")
+            row["rms_theta_err_to_impact1_rad"] = (
+                float(np.sqrt(np.mean(diff**2))) if diff.size else float("nan")
+            )
             row["uplift_dt_s"] = q["uplift"] - ref_q["uplift"]
             for i in range(N_IMPACTS):
                 row[f"impact{i + 1}_dt_s"] = row[f"impact{i + 1}_t_s"] - (
-                    float(ref_q["impacts"][i]) if ref_q["impacts"].size > i else float("nan"))
+                    float(ref_q["impacts"][i]) if ref_q["impacts"].size > i else float("nan")
+                )
             for i in range(N_IMPACTS):
                 row[f"rebound{i + 1}_diff"] = row[f"rebound{i + 1}"] - (
-                    float(ref_q["ratios"][i]) if ref_q["ratios"].size > i else float("nan"))
+                    float(ref_q["ratios"][i]) if ref_q["ratios"].size > i else float("nan")
+                )
         row["wall_s"] = traj.wall_time
         row["settings"] = json.dumps(traj.settings, sort_keys=True, default=str)
         row["versions"] = json.dumps(traj.versions, sort_keys=True, default=str)
@@ -331,8 +338,11 @@ def run(
         long_rows.append(pd.DataFrame({"t": traj.t[keep], "engine": name, "theta_over_alpha": toa[keep]}))
 
     metrics = pd.DataFrame(rows)
-    theta_df = (pd.concat(long_rows, ignore_index=True) if long_rows
-                else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"]))
+    theta_df = (
+        pd.concat(long_rows, ignore_index=True)
+        if long_rows
+        else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"])
+    )
     com_df = _com_table(runs, shown, config.max_points)
 
     for name in shown:
@@ -347,8 +357,10 @@ def run(
     headline = {}
     for r in rows:
         if "peak_rel_error" in r:
-            headline[r["engine"]] = {"peak_rel_error": _json_num(r["peak_rel_error"]),
-                                     "rms_theta_err_to_impact1_rad": _json_num(r["rms_theta_err_to_impact1_rad"])}
+            headline[r["engine"]] = {
+                "peak_rel_error": _json_num(r["peak_rel_error"]),
+                "rms_theta_err_to_impact1_rad": _json_num(r["rms_theta_err_to_impact1_rad"]),
+            }
     return StudyResult(
         kind="histories",
         title=f"Rocking histories — {scn.name}",
@@ -389,10 +401,22 @@ def _com_table(runs: dict[str, Any], shown: list[str], k: int) -> Any:
         if traj is None or runs[name][1] != "ok" or traj.t.size == 0:
             continue
         keep = _downsample(traj.t.size, k)
-        parts.append(pd.DataFrame({"t": traj.t[keep], "engine": name, "com_x_m": traj.com[keep, 0],
-                                   "com_y_m": traj.com[keep, 1], "com_z_m": traj.com[keep, 2]}))
-    return (pd.concat(parts, ignore_index=True) if parts
-            else pd.DataFrame(columns=["t", "engine", "com_x_m", "com_y_m", "com_z_m"]))
+        parts.append(
+            pd.DataFrame(
+                {
+                    "t": traj.t[keep],
+                    "engine": name,
+                    "com_x_m": traj.com[keep, 0],
+                    "com_y_m": traj.com[keep, 1],
+                    "com_z_m": traj.com[keep, 2],
+                }
+            )
+        )
+    return (
+        pd.concat(parts, ignore_index=True)
+        if parts
+        else pd.DataFrame(columns=["t", "engine", "com_x_m", "com_y_m", "com_z_m"])
+    )
 
 
 def _fmt(x: Any, spec: str) -> str:
@@ -405,10 +429,13 @@ def _fmt(x: Any, spec: str) -> str:
 
 def _summary(metrics: Any, ref_used: str | None, scn: Scenario, cfg: HistoriesConfig) -> list[str]:
     vals = ", ".join(f"{k} = {v:g}" for k, v in cfg.values.items()) or "as given"
-    out = [f"**Rocking histories** of `{scn.name}` ({vals}); reference: {ref_used or 'none'}", "",
-           "| engine | peak θ/α | peak err | RMS θ err to 1st impact (rad) | uplift s | 1st impact s | "
-           "rebound 1 | energy drift | wall s |",
-           "|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        f"**Rocking histories** of `{scn.name}` ({vals}); reference: {ref_used or 'none'}",
+        "",
+        "| engine | peak θ/α | peak err | RMS θ err to 1st impact (rad) | uplift s | 1st impact s | "
+        "rebound 1 | energy drift | wall s |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for _, r in metrics.iterrows():
         if r.get("status") != "ok":
             out.append(f"| {r['engine']} | {r.get('status')} | | | | | | | |")
@@ -433,8 +460,15 @@ def _theta_figure(df: Any, ref_used: str | None, name: str) -> Figure:
     fig, ax = plt.subplots(figsize=(8, 4))
     for i, (eng, sub) in enumerate(df.groupby("engine", sort=False)):
         is_ref = eng == ref_used
-        ax.plot(sub["t"], sub["theta_over_alpha"], lw=2.2 if is_ref else 1.2, color="k" if is_ref else f"C{i}",
-                ls="-" if is_ref else "--", label=f"{eng} (reference)" if is_ref else eng, zorder=2 if is_ref else 3)
+        ax.plot(
+            sub["t"],
+            sub["theta_over_alpha"],
+            lw=2.2 if is_ref else 1.2,
+            color="k" if is_ref else f"C{i}",
+            ls="-" if is_ref else "--",
+            label=f"{eng} (reference)" if is_ref else eng,
+            zorder=2 if is_ref else 3,
+        )
     for y in (-1.0, 1.0):
         ax.axhline(y, color="0.6", lw=0.8, ls=":")
     ax.set_xlabel("t [s]")
@@ -442,9 +476,13 @@ def _theta_figure(df: Any, ref_used: str | None, name: str) -> Figure:
     ax.set_title(f"rocking angle — {name}")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return Figure(name="histories_theta", figure=fig, table="histories_theta",
-                  caption="Rocking angle θ normalised by the critical angle α of the side the rock leans to; "
-                          "the black line is the analytical reference, ±1 marks toppling.")
+    return Figure(
+        name="histories_theta",
+        figure=fig,
+        table="histories_theta",
+        caption="Rocking angle θ normalised by the critical angle α of the side the rock leans to; "
+        "the black line is the analytical reference, ±1 marks toppling.",
+    )
 
 
 def _com_figure(df: Any, name: str) -> Figure:
@@ -466,5 +504,9 @@ def _com_figure(df: Any, name: str) -> Figure:
     a1.legend(fontsize=8)
     fig.suptitle(name)
     fig.tight_layout()
-    return Figure(name="histories_com", figure=fig, table="histories_com",
-                  caption="Centre-of-mass path in the pedestal frame: plan view (x–y) and side view (x–z).")
+    return Figure(
+        name="histories_com",
+        figure=fig,
+        table="histories_com",
+        caption="Centre-of-mass path in the pedestal frame: plan view (x–y) and side view (x–z).",
+    )

@@ -198,10 +198,14 @@ def read_golden(path: str | Path) -> tuple[list[GoldenRow], list[str]]:
     header = list(reader.fieldnames or [])
     missing = [c for c in REQUIRED if c not in header]
     if missing:
-        raise GoldenError(f"{path}: missing column(s) {missing}; expected columns: {', '.join(GOLDEN_COLUMNS)}")
+        raise GoldenError(
+            f"{path}: missing column(s) {missing}; expected columns: {', '.join(GOLDEN_COLUMNS)}"
+        )
     unknown = [c for c in header if c not in GOLDEN_COLUMNS]
     if unknown:
-        raise GoldenError(f"{path}: unknown column(s) {unknown}; expected columns: {', '.join(GOLDEN_COLUMNS)}")
+        raise GoldenError(
+            f"{path}: unknown column(s) {unknown}; expected columns: {', '.join(GOLDEN_COLUMNS)}"
+        )
     rows = []
     for raw in reader:
         line = reader.line_num
@@ -212,9 +216,13 @@ def read_golden(path: str | Path) -> tuple[list[GoldenRow], list[str]]:
             try:
                 v = float(_raw[col])
             except (TypeError, ValueError):
-                raise GoldenError(f"{path}: line {_line}: column '{col}': expected a number (found {_raw[col]!r})") from None
+                raise GoldenError(
+                    f"{path}: line {_line}: column '{col}': expected a number (found {_raw[col]!r})"
+                ) from None
             if not math.isfinite(v):
-                raise GoldenError(f"{path}: line {_line}: column '{col}': expected a finite number (found {_raw[col]!r})")
+                raise GoldenError(
+                    f"{path}: line {_line}: column '{col}': expected a finite number (found {_raw[col]!r})"
+                )
             return v
 
         settings: dict[str, Any] = {}
@@ -223,9 +231,13 @@ def read_golden(path: str | Path) -> tuple[list[GoldenRow], list[str]]:
             try:
                 settings = json.loads(st)
             except json.JSONDecodeError as exc:
-                raise GoldenError(f"{path}: line {line}: column 'settings': not valid JSON ({exc.msg}): {st!r}") from None
+                raise GoldenError(
+                    f"{path}: line {line}: column 'settings': not valid JSON ({exc.msg}): {st!r}"
+                ) from None
             if not isinstance(settings, dict):
-                raise GoldenError(f"{path}: line {line}: column 'settings': expected a JSON object (found {st!r})")
+                raise GoldenError(
+                    f"{path}: line {line}: column 'settings': expected a JSON object (found {st!r})"
+                )
         thr, tol = num("threshold"), num("tolerance")
         if tol <= 0:
             raise GoldenError(f"{path}: line {line}: column 'tolerance': must be > 0 (found {tol})")
@@ -279,8 +291,12 @@ def _measure(row: GoldenRow, base: Path, fast: bool, wide: bool) -> RowResult:
             for v in (thr - tol, thr + tol):
                 traj = run_scene(compile_scene(scn.with_value(row.param, v)), row.engine, settings)
                 if not traj.ok:
-                    return RowResult(row, "ERROR", message=f"engine failed at {row.param} = {v:.6g}: {traj.message}",
-                                     wall_time=time.perf_counter() - t0)
+                    return RowResult(
+                        row,
+                        "ERROR",
+                        message=f"engine failed at {row.param} = {v:.6g}: {traj.message}",
+                        wall_time=time.perf_counter() - t0,
+                    )
                 flags.append(traj.toppled)
             n = 2
             dt = time.perf_counter() - t0
@@ -300,25 +316,53 @@ def _measure(row: GoldenRow, base: Path, fast: bool, wide: bool) -> RowResult:
             lo, hi, n_grid = max(thr * 0.5, thr - 50 * margin), thr + 50 * margin, 12
         rel_tol = (2.0 * tol / BRACKET_DIV) / hi
         res = find_threshold(
-            scn, row.engine, row.param, lo=lo, hi=hi, n_grid=n_grid, rel_tol=rel_tol,
-            settings=settings, all_transitions=False,
+            scn,
+            row.engine,
+            row.param,
+            lo=lo,
+            hi=hi,
+            n_grid=n_grid,
+            rel_tol=rel_tol,
+            settings=settings,
+            all_transitions=False,
         )
     except (EngineSettingsError, NotApplicable, ScenarioError) as exc:
-        return RowResult(row, "ERROR", message=f"{type(exc).__name__}: {exc}", wall_time=time.perf_counter() - t0)
+        return RowResult(
+            row, "ERROR", message=f"{type(exc).__name__}: {exc}", wall_time=time.perf_counter() - t0
+        )
     except Exception as exc:  # engine crash or failed trajectory
-        return RowResult(row, "ERROR", message=f"{type(exc).__name__}: {exc}", wall_time=time.perf_counter() - t0)
+        return RowResult(
+            row, "ERROR", message=f"{type(exc).__name__}: {exc}", wall_time=time.perf_counter() - t0
+        )
     dt = time.perf_counter() - t0
     if res.grid_toppled.size and res.grid_toppled[0]:
-        return RowResult(row, "FAIL", message=f"topples already at the bottom of the search range ({lo:.6g})",
-                         n_simulations=res.n_simulations, wall_time=dt)
+        return RowResult(
+            row,
+            "FAIL",
+            message=f"topples already at the bottom of the search range ({lo:.6g})",
+            n_simulations=res.n_simulations,
+            wall_time=dt,
+        )
     if res.minimum is None:
-        return RowResult(row, "FAIL", message=f"never topples up to the top of the search range ({hi:.6g})",
-                         n_simulations=res.n_simulations, wall_time=dt)
+        return RowResult(
+            row,
+            "FAIL",
+            message=f"never topples up to the top of the search range ({hi:.6g})",
+            n_simulations=res.n_simulations,
+            wall_time=dt,
+        )
     m = float(res.minimum)
     status = "PASS" if abs(m - thr) <= tol else "FAIL"
     msg = "" if status == "PASS" else f"|delta| {abs(m - thr):.4g} > tolerance {tol:.4g}"
-    return RowResult(row, status, measured=m, bracket=res.tolerance, message=msg,
-                     n_simulations=res.n_simulations, wall_time=dt)
+    return RowResult(
+        row,
+        status,
+        measured=m,
+        bracket=res.tolerance,
+        message=msg,
+        n_simulations=res.n_simulations,
+        wall_time=dt,
+    )
 
 
 def regress(

@@ -146,7 +146,9 @@ class StudySpec:
         for s in self.scenarios:
             if s.label == label:
                 if s.scenario is None:
-                    raise StudyFileError(f"scenario {label!r} is generated at run time; call materialise() first")
+                    raise StudyFileError(
+                        f"scenario {label!r} is generated at run time; call materialise() first"
+                    )
                 return s.scenario
         raise KeyError(label)
 
@@ -174,7 +176,10 @@ def study_config_class(kind: str) -> type[BaseModel]:
     classes = [
         v
         for k, v in vars(mod).items()
-        if k.endswith("Config") and isinstance(v, type) and issubclass(v, BaseModel) and "type" in v.model_fields
+        if k.endswith("Config")
+        and isinstance(v, type)
+        and issubclass(v, BaseModel)
+        and "type" in v.model_fields
     ]
     if not classes:
         raise ImportError(f"{STUDY_MODULES[kind]} defines no <X>Config model with a 'type' field")
@@ -236,10 +241,14 @@ def _load_scenario_entry(raw: Any, key: str, source: Path | None, base_dir: Path
         raise _err(source, key, f"expected a table with 'label' and 'path' or 'synthetic' (found {raw!r})")
     extra = set(raw) - {"label", "path", "base", "synthetic"}
     if extra:
-        raise _err(source, f"{key}.{sorted(extra)[0]}", "unknown key; expected one of: base, label, path, synthetic")
+        raise _err(
+            source, f"{key}.{sorted(extra)[0]}", "unknown key; expected one of: base, label, path, synthetic"
+        )
     label = raw.get("label")
     if not isinstance(label, str) or not label.replace("_", "").replace("-", "").isalnum():
-        raise _err(source, f"{key}.label", f"expected a short name (letters, digits, _ or -) (found {label!r})")
+        raise _err(
+            source, f"{key}.label", f"expected a short name (letters, digits, _ or -) (found {label!r})"
+        )
     if ("path" in raw) == ("synthetic" in raw):
         raise _err(source, key, "give either 'path' (a scenario file) or 'synthetic' (a generated rock)")
     if "path" in raw:
@@ -257,12 +266,18 @@ def _load_scenario_entry(raw: Any, key: str, source: Path | None, base_dir: Path
     bad = set(syn) - SYNTHETIC_KEYS
     if bad:
         raise _err(
-            source, f"{key}.synthetic.{sorted(bad)[0]}", f"unknown key; expected one of: {', '.join(sorted(SYNTHETIC_KEYS))}"
+            source,
+            f"{key}.synthetic.{sorted(bad)[0]}",
+            f"unknown key; expected one of: {', '.join(sorted(SYNTHETIC_KEYS))}",
         )
     if not isinstance(syn.get("seed", 0), int):
         raise _err(source, f"{key}.synthetic.seed", f"expected an integer (found {syn.get('seed')!r})")
     if "base" not in raw or not isinstance(raw["base"], str):
-        raise _err(source, f"{key}.base", "a synthetic scenario needs 'base': the scenario file whose rock it replaces")
+        raise _err(
+            source,
+            f"{key}.base",
+            "a synthetic scenario needs 'base': the scenario file whose rock it replaces",
+        )
     bp = base_dir / raw["base"]
     try:
         load_scenario(bp)
@@ -321,7 +336,9 @@ def load_study_spec(path: str | Path, *, quick: bool = False) -> StudySpec:
     return study_spec_from_dict(data, source=source, quick=quick)
 
 
-def study_spec_from_dict(data: dict[str, Any], *, source: Path | None = None, quick: bool = False) -> StudySpec:
+def study_spec_from_dict(
+    data: dict[str, Any], *, source: Path | None = None, quick: bool = False
+) -> StudySpec:
     """Validate a parsed study file (see :func:`load_study_spec`)."""
     known = {"name", "title", "description", "scenario", "scenarios", "engines", "study"}
     for k in data:
@@ -340,7 +357,9 @@ def study_spec_from_dict(data: dict[str, Any], *, source: Path | None = None, qu
 
     # scenarios
     if ("scenario" in data) == ("scenarios" in data):
-        raise _err(source, "scenario", "give either 'scenario' (one file) or '[[scenarios]]' (several, with labels)")
+        raise _err(
+            source, "scenario", "give either 'scenario' (one file) or '[[scenarios]]' (several, with labels)"
+        )
     entries: list[ScenarioEntry] = []
     if "scenario" in data:
         if not isinstance(data["scenario"], str):
@@ -372,7 +391,9 @@ def study_spec_from_dict(data: dict[str, Any], *, source: Path | None = None, qu
         reg = registered_names()
         unknown = [e for e in engines if e not in reg]
         if unknown:
-            raise _err(source, "engines", f"unknown engine {unknown[0]!r}; registered engines: {', '.join(reg)}")
+            raise _err(
+                source, "engines", f"unknown engine {unknown[0]!r}; registered engines: {', '.join(reg)}"
+            )
 
     # studies
     raw_studies = data.get("study")
@@ -398,7 +419,11 @@ def study_spec_from_dict(data: dict[str, Any], *, source: Path | None = None, qu
             raise _err(source, f"{key}.scenarios", f"expected scenario labels (found {sel!r})")
         for s in sel:
             if s not in labels:
-                raise _err(source, f"{key}.scenario", f"unknown scenario label {s!r}; expected one of: {', '.join(labels)}")
+                raise _err(
+                    source,
+                    f"{key}.scenario",
+                    f"unknown scenario label {s!r}; expected one of: {', '.join(labels)}",
+                )
         st_engines = None
         if "engines" in st:
             st_engines, st_all = _engines_value(st["engines"], source, f"{key}.engines")
@@ -410,7 +435,9 @@ def study_spec_from_dict(data: dict[str, Any], *, source: Path | None = None, qu
         try:
             cls = study_config_class(kind)
         except ImportError as exc:
-            raise _err(source, f"{key}.type", f"study module {STUDY_MODULES[kind]} cannot be imported ({exc})") from None
+            raise _err(
+                source, f"{key}.type", f"study module {STUDY_MODULES[kind]} cannot be imported ({exc})"
+            ) from None
         merged = {**opts, **qk} if quick else opts
         try:
             cfg = cls.model_validate(merged)
@@ -463,7 +490,9 @@ def _shape_filter(engines: Sequence[str], scn: Scenario) -> tuple[list[str], lis
     return keep, notes
 
 
-def failed_result(kind: str, title: str, exc: BaseException, *, scenario: Scenario | None = None) -> StudyResult:
+def failed_result(
+    kind: str, title: str, exc: BaseException, *, scenario: Scenario | None = None
+) -> StudyResult:
     """A StudyResult recording a study that raised (rendered as a failed section)."""
     tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
     msg = f"{type(exc).__name__}: {exc}"

@@ -131,14 +131,25 @@ def run(
         def cb(count: int, value: float, toppled: bool) -> None:
             if progress is not None:
                 frac = min(count / expected, 0.99)
-                progress(f"thresholds: {name} #{count} {config.param}={value:.6g} "
-                         f"{'topples' if toppled else 'stands'}", (done + frac) / n_total)
+                progress(
+                    f"thresholds: {name} #{count} {config.param}={value:.6g} "
+                    f"{'topples' if toppled else 'stands'}",
+                    (done + frac) / n_total,
+                )
 
         try:
             get_engine(name)
             res = find_threshold(
-                scenario, name, config.param, lo=lo, hi=hi, n_grid=config.n_grid, rel_tol=config.rel_tol,
-                settings=config.settings.get(name), all_transitions=True, progress=cb,
+                scenario,
+                name,
+                config.param,
+                lo=lo,
+                hi=hi,
+                n_grid=config.n_grid,
+                rel_tol=config.rel_tol,
+                settings=config.settings.get(name),
+                all_transitions=True,
+                progress=cb,
             )
         except EngineNotAvailable as exc:
             skipped[name] = f"not available: {exc}"
@@ -200,58 +211,88 @@ def run(
         res = results.get(name)
         if res is None:
             status = "skipped" if name in skipped else "failed"
-            rows.append({
-                "engine": name, "status": status, "message": skipped.get(name) or failures.get(name, ""),
-                "profile": (config.settings.get(name) or {}).get("profile", ""),
-                "param": config.param,
-                _col("minimum", unit): float("nan"), _col("tolerance", unit): float("nan"),
-                "n_bands": 0, "n_simulations": 0, "wall_s": float("nan"),
-                "rel_error_vs_reference": float("nan"), "rel_error_vs_reference_engine": float("nan"),
-                "settings": json.dumps(config.settings.get(name) or {}, sort_keys=True, default=str),
-                "versions": "{}",
-            })
+            rows.append(
+                {
+                    "engine": name,
+                    "status": status,
+                    "message": skipped.get(name) or failures.get(name, ""),
+                    "profile": (config.settings.get(name) or {}).get("profile", ""),
+                    "param": config.param,
+                    _col("minimum", unit): float("nan"),
+                    _col("tolerance", unit): float("nan"),
+                    "n_bands": 0,
+                    "n_simulations": 0,
+                    "wall_s": float("nan"),
+                    "rel_error_vs_reference": float("nan"),
+                    "rel_error_vs_reference_engine": float("nan"),
+                    "settings": json.dumps(config.settings.get(name) or {}, sort_keys=True, default=str),
+                    "versions": "{}",
+                }
+            )
             continue
         bands = res.bands()
         mn = res.minimum
-        rows.append({
-            "engine": name,
-            "status": "ok" if mn is not None else "never_toppled",
-            "message": "" if mn is not None else f"no toppling in [{lo:.6g}, {hi:.6g}]",
-            "profile": str(res.settings.get("profile", "")),
-            "param": config.param,
-            _col("minimum", unit): _nan(mn),
-            _col("tolerance", unit): _nan(res.tolerance) if not (res.grid_toppled.size and res.grid_toppled[0])
-            else 0.0,
-            "n_bands": len(bands),
-            "n_simulations": res.n_simulations,
-            "wall_s": res.wall_time,
-            "rel_error_vs_reference": (mn / config.reference - 1.0) if (mn is not None and config.reference)
-            else float("nan"),
-            "rel_error_vs_reference_engine": (mn / ref_min - 1.0) if (mn is not None and ref_min) else float("nan"),
-            "settings": json.dumps(res.settings, sort_keys=True, default=str),
-            "versions": json.dumps(res.versions, sort_keys=True, default=str),
-        })
-        if res.grid_toppled.size and res.grid_toppled[0]:
-            notes.append(f"{name}: already toppling at the bottom of the scan ({lo:.6g}); the minimum is ≤ that")
-        for i, b in enumerate(bands):
-            band_rows.append({
+        rows.append(
+            {
                 "engine": name,
-                "band": i,
-                _col("band_start", unit): b.start,
-                _col("band_end", unit): _nan(b.end),
-                _col("start_tol", unit): b.start_tol,
-                _col("end_tol", unit): _nan(b.end_tol),
-            })
+                "status": "ok" if mn is not None else "never_toppled",
+                "message": "" if mn is not None else f"no toppling in [{lo:.6g}, {hi:.6g}]",
+                "profile": str(res.settings.get("profile", "")),
+                "param": config.param,
+                _col("minimum", unit): _nan(mn),
+                _col("tolerance", unit): _nan(res.tolerance)
+                if not (res.grid_toppled.size and res.grid_toppled[0])
+                else 0.0,
+                "n_bands": len(bands),
+                "n_simulations": res.n_simulations,
+                "wall_s": res.wall_time,
+                "rel_error_vs_reference": (mn / config.reference - 1.0)
+                if (mn is not None and config.reference)
+                else float("nan"),
+                "rel_error_vs_reference_engine": (mn / ref_min - 1.0)
+                if (mn is not None and ref_min)
+                else float("nan"),
+                "settings": json.dumps(res.settings, sort_keys=True, default=str),
+                "versions": json.dumps(res.versions, sort_keys=True, default=str),
+            }
+        )
+        if res.grid_toppled.size and res.grid_toppled[0]:
+            notes.append(
+                f"{name}: already toppling at the bottom of the scan ({lo:.6g}); the minimum is ≤ that"
+            )
+        for i, b in enumerate(bands):
+            band_rows.append(
+                {
+                    "engine": name,
+                    "band": i,
+                    _col("band_start", unit): b.start,
+                    _col("band_end", unit): _nan(b.end),
+                    _col("start_tol", unit): b.start_tol,
+                    _col("end_tol", unit): _nan(b.end_tol),
+                }
+            )
 
     table = pd.DataFrame(rows)
-    bands_df = pd.DataFrame(band_rows, columns=["engine", "band", _col("band_start", unit), _col("band_end", unit),
-                                                _col("start_tol", unit), _col("end_tol", unit)])
+    bands_df = pd.DataFrame(
+        band_rows,
+        columns=[
+            "engine",
+            "band",
+            _col("band_start", unit),
+            _col("band_end", unit),
+            _col("start_tol", unit),
+            _col("end_tol", unit),
+        ],
+    )
     figs = [_figure(table, bands_df, config, unit, ref_used, ref_min, lo, hi)]
 
-    summary = [f"**Thresholds** of `{config.param}` on `{scenario.name}` (scan {lo:.6g}–{hi:.6g}, "
-               f"rel. tol {config.rel_tol:g})", "",
-               f"| engine | minimum | ± | bands | sims | vs reference | vs {ref_used or '—'} | wall s |",
-               "|---|---|---|---|---|---|---|---|"]
+    summary = [
+        f"**Thresholds** of `{config.param}` on `{scenario.name}` (scan {lo:.6g}–{hi:.6g}, "
+        f"rel. tol {config.rel_tol:g})",
+        "",
+        f"| engine | minimum | ± | bands | sims | vs reference | vs {ref_used or '—'} | wall s |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         mn = r[_col("minimum", unit)]
         if r["status"] in ("skipped", "failed"):
@@ -298,8 +339,16 @@ def _pct(x: float) -> str:
     return "—" if x is None or not math.isfinite(x) else f"{x:+.3%}"
 
 
-def _figure(table: Any, bands: Any, cfg: ThresholdsConfig, unit: str, ref_used: str | None,
-            ref_min: float | None, lo: float, hi: float) -> Figure:
+def _figure(
+    table: Any,
+    bands: Any,
+    cfg: ThresholdsConfig,
+    unit: str,
+    ref_used: str | None,
+    ref_min: float | None,
+    lo: float,
+    hi: float,
+) -> Figure:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -312,8 +361,15 @@ def _figure(table: Any, bands: Any, cfg: ThresholdsConfig, unit: str, ref_used: 
     fig, axes = plt.subplots(1, ncols, figsize=(5.5 * ncols + 1, 4.0), squeeze=False)
     ax = axes[0, 0]
     x = np.arange(len(ok))
-    ax.errorbar(x, ok[_col("minimum", unit)], yerr=ok[_col("tolerance", unit)].fillna(0.0), fmt="o", capsize=5,
-                color="C0", label="minimum toppling value")
+    ax.errorbar(
+        x,
+        ok[_col("minimum", unit)],
+        yerr=ok[_col("tolerance", unit)].fillna(0.0),
+        fmt="o",
+        capsize=5,
+        color="C0",
+        label="minimum toppling value",
+    )
     if cfg.reference is not None:
         ax.axhline(cfg.reference, color="k", lw=1, label=f"reference {cfg.reference:g}")
     if ref_min is not None:
@@ -343,7 +399,9 @@ def _figure(table: Any, bands: Any, cfg: ThresholdsConfig, unit: str, ref_used: 
         name="thresholds",
         figure=fig,
         table="thresholds",
-        caption=(f"Minimum toppling value of {cfg.param} per engine (error bars: ± bisection tolerance); "
-                 "solid line: reference value, dashed: analytical reference engine"
-                 + ("; right: every toppling band found in the scanned range." if multi else ".")),
+        caption=(
+            f"Minimum toppling value of {cfg.param} per engine (error bars: ± bisection tolerance); "
+            "solid line: reference value, dashed: analytical reference engine"
+            + ("; right: every toppling band found in the scanned range." if multi else ".")
+        ),
     )

@@ -46,7 +46,9 @@ class TradeoffConfig(BaseModel):
 
     type: Literal["tradeoff"] = "tradeoff"
     param: str = "excitation.amplitude"
-    reference: float | None = Field(None, description="reference threshold (e.g. 5.638); None: the reference engine's")
+    reference: float | None = Field(
+        None, description="reference threshold (e.g. 5.638); None: the reference engine's"
+    )
     reference_engine: str = "housner"
     timesteps: list[float] = Field(default_factory=lambda: [1e-2, 5e-3, 2e-3, 1e-3, 5e-4, 1e-4, 1e-5])
     iterations: dict[str, list[int]] = Field(
@@ -54,7 +56,9 @@ class TradeoffConfig(BaseModel):
         description="extra solver-iteration values per engine (key from ITERATION_KEYS)",
     )
     profiles: list[str] = Field(default_factory=lambda: ["faithful", "engine-default"])
-    extra: list[dict[str, Any]] = Field(default_factory=list, description="more settings variants, e.g. {'collision': 'hull'}")
+    extra: list[dict[str, Any]] = Field(
+        default_factory=list, description="more settings variants, e.g. {'collision': 'hull'}"
+    )
     lo: float | None = Field(None, description="scan start; default 0.8 × reference")
     hi: float | None = Field(None, description="scan end; default 1.25 × reference")
     n_grid: int = Field(5, ge=2)
@@ -82,8 +86,9 @@ def pareto_front(cost: Sequence[float], error: Sequence[float]) -> np.ndarray:
     return mask
 
 
-def recommend(points: Any, budgets: Sequence[float], *, cost: str = "wall_s_per_sim",
-              error: str = "abs_rel_error") -> Any:
+def recommend(
+    points: Any, budgets: Sequence[float], *, cost: str = "wall_s_per_sim", error: str = "abs_rel_error"
+) -> Any:
     """Per engine and budget: the cheapest point with |error| ≤ budget (a DataFrame row per pair).
 
     ``points`` is a DataFrame with columns ``engine``, ``setting``, ``cost`` and ``error``
@@ -98,16 +103,30 @@ def recommend(points: Any, budgets: Sequence[float], *, cost: str = "wall_s_per_
         for b in budgets:
             within = g[g[error] <= b]
             if within.empty:
-                rows.append({"engine": eng, "budget": b, "setting": None, "rel_error": None, cost: None,
-                             "timestep_s": None, "profile": None})
+                rows.append(
+                    {
+                        "engine": eng,
+                        "budget": b,
+                        "setting": None,
+                        "rel_error": None,
+                        cost: None,
+                        "timestep_s": None,
+                        "profile": None,
+                    }
+                )
                 continue
             best = within.sort_values([cost, error]).iloc[0]
-            rows.append({
-                "engine": eng, "budget": b, "setting": best["setting"],
-                "rel_error": float(best["rel_error"]) if "rel_error" in best else float(best[error]),
-                cost: float(best[cost]),
-                "timestep_s": best.get("timestep_s"), "profile": best.get("profile"),
-            })
+            rows.append(
+                {
+                    "engine": eng,
+                    "budget": b,
+                    "setting": best["setting"],
+                    "rel_error": float(best["rel_error"]) if "rel_error" in best else float(best[error]),
+                    cost: float(best[cost]),
+                    "timestep_s": best.get("timestep_s"),
+                    "profile": best.get("profile"),
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -136,16 +155,34 @@ def _fmt_setting(variant: Mapping[str, Any]) -> str:
 
 
 # --------------------------------------------------------------- worker target
-def threshold_point(scenario: dict[str, Any], source: str | None, engine: str, settings: dict[str, Any],
-                    param: str, lo: float, hi: float, n_grid: int, rel_tol: float) -> dict[str, Any]:
+def threshold_point(
+    scenario: dict[str, Any],
+    source: str | None,
+    engine: str,
+    settings: dict[str, Any],
+    param: str,
+    lo: float,
+    hi: float,
+    n_grid: int,
+    rel_tol: float,
+) -> dict[str, Any]:
     """One threshold search (runs in a worker); JSON-able result."""
     from pbr_xval.study.threshold import find_threshold
     from pbr_xval.study.workers import _scenario_from_payload, resolve_engine
 
     scn = _scenario_from_payload(scenario, source)
     eng = resolve_engine(engine)
-    res = find_threshold(scn, eng, param, lo=lo, hi=hi, n_grid=n_grid, rel_tol=rel_tol,
-                         settings=settings, all_transitions=False)
+    res = find_threshold(
+        scn,
+        eng,
+        param,
+        lo=lo,
+        hi=hi,
+        n_grid=n_grid,
+        rel_tol=rel_tol,
+        settings=settings,
+        all_transitions=False,
+    )
     below = bool(res.grid_toppled.size and res.grid_toppled[0])
     from pbr_xval.engine import _jsonable
 
@@ -183,8 +220,13 @@ def _variants(cfg: TradeoffConfig, name: str, eng: Any) -> list[tuple[float | No
     return out
 
 
-def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
-        progress: Callable[[str, float], None] | None = None) -> StudyResult:
+def run(
+    config: TradeoffConfig,
+    scenario: Scenario,
+    engines: Sequence[str],
+    *,
+    progress: Callable[[str, float], None] | None = None,
+) -> StudyResult:
     import pandas as pd
 
     from pbr_xval.engine import EngineNotAvailable
@@ -194,8 +236,12 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
     cfg = config
     result = StudyResult(kind="tradeoff", title=f"Speed–accuracy trade of the {cfg.param} threshold")
     data, source = scenario_payload(scenario)
-    result.provenance = {"scenario_hash": scenario.content_hash(), "scenario": scenario.name,
-                         "param": cfg.param, "engines": {}}
+    result.provenance = {
+        "scenario_hash": scenario.content_hash(),
+        "scenario": scenario.name,
+        "param": cfg.param,
+        "engines": {},
+    }
 
     def say(msg: str, frac: float) -> None:
         if progress is not None:
@@ -208,18 +254,41 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
         v0 = float(scenario.get_value(cfg.param))
         lo0, hi0 = (cfg.lo or 0.5 * v0), (cfg.hi or 2.0 * v0)
         say(f"reference threshold ({cfg.reference_engine})", 0.0)
-        r = next(iter(run_many([CallTask("pbr_xval.study.tradeoff:threshold_point", {
-            "scenario": data, "source": source, "engine": cfg.reference_engine, "settings": {},
-            "param": cfg.param, "lo": lo0, "hi": hi0, "n_grid": max(cfg.n_grid, 8), "rel_tol": cfg.rel_tol / 10,
-        }, timeout=cfg.timeout_per_point)])))
+        r = next(
+            iter(
+                run_many(
+                    [
+                        CallTask(
+                            "pbr_xval.study.tradeoff:threshold_point",
+                            {
+                                "scenario": data,
+                                "source": source,
+                                "engine": cfg.reference_engine,
+                                "settings": {},
+                                "param": cfg.param,
+                                "lo": lo0,
+                                "hi": hi0,
+                                "n_grid": max(cfg.n_grid, 8),
+                                "rel_tol": cfg.rel_tol / 10,
+                            },
+                            timeout=cfg.timeout_per_point,
+                        )
+                    ]
+                )
+            )
+        )
         if not r.ok or r.value.get("minimum") is None:
-            result.notes.append(f"reference engine {cfg.reference_engine!r} gave no threshold: {r.message or r.value}")
+            result.notes.append(
+                f"reference engine {cfg.reference_engine!r} gave no threshold: {r.message or r.value}"
+            )
             result.wall_time = time.perf_counter() - t_start
             return result
         ref = float(r.value["minimum"])
         ref_source = f"{cfg.reference_engine} engine"
-        result.provenance["engines"][cfg.reference_engine] = {"settings": r.value["settings"],
-                                                              "versions": r.value["versions"]}
+        result.provenance["engines"][cfg.reference_engine] = {
+            "settings": r.value["settings"],
+            "versions": r.value["versions"],
+        }
     lo = cfg.lo if cfg.lo is not None else 0.8 * ref
     hi = cfg.hi if cfg.hi is not None else 1.25 * ref
     result.provenance.update(reference=ref, reference_source=ref_source, lo=lo, hi=hi, rel_tol=cfg.rel_tol)
@@ -254,16 +323,29 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
 
     def make_row(name: str, dt: float | None, prof: str, ex: dict[str, Any]) -> dict[str, Any]:
         variant = ({"timestep": dt} if dt is not None else {}) | {"profile": prof} | ex
-        return {"engine": labels[name], "setting": _fmt_setting(variant), "timestep_s": dt, "profile": prof,
-                "variant": _fmt_setting(ex) if ex else "", "status": "", "threshold": None,
-                "tolerance": None, "rel_error": None, "abs_rel_error": None, "n_simulations": None,
-                "wall_s_per_sim": None, "wall_s_search": None, "note": ""}
+        return {
+            "engine": labels[name],
+            "setting": _fmt_setting(variant),
+            "timestep_s": dt,
+            "profile": prof,
+            "variant": _fmt_setting(ex) if ex else "",
+            "status": "",
+            "threshold": None,
+            "tolerance": None,
+            "rel_error": None,
+            "abs_rel_error": None,
+            "n_simulations": None,
+            "wall_s_per_sim": None,
+            "wall_s_search": None,
+            "note": "",
+        }
 
     # run series in parallel (one series at a time per worker); within a series sequentially
     active: dict[int, dict[str, Any]] = {}
     queue = list(range(len(series)))
     state: dict[int, dict[str, Any]] = {
-        i: {"pos": 0, "last_cost": None, "last_dt": None, "last_n": None, "history": []} for i in range(len(series))
+        i: {"pos": 0, "last_cost": None, "last_dt": None, "last_n": None, "history": []}
+        for i in range(len(series))
     }
 
     def next_task(i: int) -> CallTask | None:
@@ -277,16 +359,30 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
             if st["last_cost"] is not None and dt is not None and st["last_dt"]:
                 predicted = _predict_cost(st["history"], dt) * (st["last_n"] or 1)
                 if predicted > cfg.max_wall_per_point:
-                    row.update(status="skipped",
-                               note=f"predicted {predicted:.0f} s > max_wall_per_point {cfg.max_wall_per_point:g} s")
+                    row.update(
+                        status="skipped",
+                        note=f"predicted {predicted:.0f} s > max_wall_per_point {cfg.max_wall_per_point:g} s",
+                    )
                     rows.append(row)
                     done += 1
                     continue
             settings = {"profile": prof} | ({"timestep": dt} if dt is not None else {}) | ex
-            return CallTask("pbr_xval.study.tradeoff:threshold_point", {
-                "scenario": data, "source": source, "engine": name, "settings": settings, "param": cfg.param,
-                "lo": lo, "hi": hi, "n_grid": cfg.n_grid, "rel_tol": cfg.rel_tol,
-            }, tag=(i, row), timeout=cfg.timeout_per_point)
+            return CallTask(
+                "pbr_xval.study.tradeoff:threshold_point",
+                {
+                    "scenario": data,
+                    "source": source,
+                    "engine": name,
+                    "settings": settings,
+                    "param": cfg.param,
+                    "lo": lo,
+                    "hi": hi,
+                    "n_grid": cfg.n_grid,
+                    "rel_tol": cfg.rel_tol,
+                },
+                tag=(i, row),
+                timeout=cfg.timeout_per_point,
+            )
         return None
 
     def feed() -> list[CallTask]:
@@ -310,22 +406,41 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
             if r.ok:
                 v = r.value
                 n = v["n_simulations"] or 1
-                row.update(n_simulations=v["n_simulations"], wall_s_search=v["wall_s"], wall_s_per_sim=v["wall_s"] / n)
+                row.update(
+                    n_simulations=v["n_simulations"],
+                    wall_s_search=v["wall_s"],
+                    wall_s_per_sim=v["wall_s"] / n,
+                )
                 st.update(last_cost=v["wall_s"] / n, last_dt=row["timestep_s"], last_n=n)
                 if row["timestep_s"]:
                     st["history"].append((float(row["timestep_s"]), v["wall_s"] / n))
                 if v["never_toppled"]:
-                    row.update(status="out_of_range", rel_error=math.inf, abs_rel_error=math.inf,
-                               note=f"never toppled up to {hi:.6g}")
+                    row.update(
+                        status="out_of_range",
+                        rel_error=math.inf,
+                        abs_rel_error=math.inf,
+                        note=f"never toppled up to {hi:.6g}",
+                    )
                 elif v["toppled_at_lo"]:
-                    row.update(status="out_of_range", threshold=lo, rel_error=-math.inf, abs_rel_error=math.inf,
-                               note=f"toppled already at {lo:.6g}")
+                    row.update(
+                        status="out_of_range",
+                        threshold=lo,
+                        rel_error=-math.inf,
+                        abs_rel_error=math.inf,
+                        note=f"toppled already at {lo:.6g}",
+                    )
                 else:
                     err = v["minimum"] / ref - 1
-                    row.update(status="ok", threshold=v["minimum"], tolerance=v["tolerance"], rel_error=err,
-                               abs_rel_error=abs(err))
+                    row.update(
+                        status="ok",
+                        threshold=v["minimum"],
+                        tolerance=v["tolerance"],
+                        rel_error=err,
+                        abs_rel_error=abs(err),
+                    )
                 result.provenance["engines"].setdefault(row["engine"], {}).setdefault("settings", {})[
-                    row["setting"]] = v["settings"]
+                    row["setting"]
+                ] = v["settings"]
             else:
                 row.update(status=r.status, note=r.message.splitlines()[0][:300] if r.message else "")
                 st.update(last_cost=None)
@@ -363,30 +478,47 @@ def run(config: TradeoffConfig, scenario: Scenario, engines: Sequence[str], *,
     ok_df = df[df["status"] == "ok"].copy()
     for c in ("wall_s_per_sim", "abs_rel_error", "rel_error"):
         ok_df[c] = ok_df[c].astype(float)
-    recs = recommend(ok_df, cfg.budgets) if not ok_df.empty else pd.DataFrame(
-        columns=["engine", "budget", "setting", "rel_error", "wall_s_per_sim", "timestep_s", "profile"])
+    recs = (
+        recommend(ok_df, cfg.budgets)
+        if not ok_df.empty
+        else pd.DataFrame(
+            columns=["engine", "budget", "setting", "rel_error", "wall_s_per_sim", "timestep_s", "profile"]
+        )
+    )
     result.tables["tradeoff_points"] = df
     result.tables["tradeoff_recommendations"] = recs
 
     # ---- summary and headline
-    result.summary.append(f"Reference threshold {ref:.5g} ({ref_source}); search in [{lo:.4g}, {hi:.4g}], "
-                          f"rel. tol {cfg.rel_tol:g}.")
+    result.summary.append(
+        f"Reference threshold {ref:.5g} ({ref_source}); search in [{lo:.4g}, {hi:.4g}], "
+        f"rel. tol {cfg.rel_tol:g}."
+    )
     head: dict[str, Any] = {"reference": ref, "recommendations": {}}
     for _, rr in recs.iterrows():
         b = float(rr["budget"])
         if rr["setting"] is None:
             line = f"{rr['engine']}: ≤ {b:.1%} — no setting tried reaches this accuracy"
         else:
-            line = (f"{rr['engine']}: ≤ {b:.1%} at least cost: {rr['setting']} "
-                    f"(err {rr['rel_error']:+.2%}, {rr['wall_s_per_sim']:.3g} s per simulation)")
+            line = (
+                f"{rr['engine']}: ≤ {b:.1%} at least cost: {rr['setting']} "
+                f"(err {rr['rel_error']:+.2%}, {rr['wall_s_per_sim']:.3g} s per simulation)"
+            )
         result.summary.append(line)
         head["recommendations"].setdefault(rr["engine"], {})[f"{b:g}"] = (
-            None if rr["setting"] is None else {"setting": rr["setting"], "rel_error": rr["rel_error"],
-                                                "wall_s_per_sim": rr["wall_s_per_sim"]})
+            None
+            if rr["setting"] is None
+            else {
+                "setting": rr["setting"],
+                "rel_error": rr["rel_error"],
+                "wall_s_per_sim": rr["wall_s_per_sim"],
+            }
+        )
     n_skip = int((df["status"] == "skipped").sum())
     bad = df[~df["status"].isin(["ok", "skipped"])]
     if n_skip:
-        result.summary.append(f"{n_skip} point(s) skipped as too expensive (> {cfg.max_wall_per_point:g} s predicted).")
+        result.summary.append(
+            f"{n_skip} point(s) skipped as too expensive (> {cfg.max_wall_per_point:g} s predicted)."
+        )
     for _, b in bad.iterrows():
         result.notes.append(f"{b['engine']} {b['setting']}: {b['status']} {b['note']}")
     result.headline = head
@@ -415,8 +547,14 @@ def _figure(df: Any, ref: float) -> Figure:
         y = np.maximum(grp["abs_rel_error"].astype(float), floor)
         ax.scatter(x, y, color=colour, alpha=0.3, s=18)
         front = grp[grp["on_front"]].sort_values("wall_s_per_sim")
-        ax.plot(front["wall_s_per_sim"].astype(float), np.maximum(front["abs_rel_error"].astype(float), floor),
-                "-o", color=colour, label=str(eng), ms=5)
+        ax.plot(
+            front["wall_s_per_sim"].astype(float),
+            np.maximum(front["abs_rel_error"].astype(float), floor),
+            "-o",
+            color=colour,
+            label=str(eng),
+            ms=5,
+        )
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time per simulation (s)")
@@ -425,6 +563,10 @@ def _figure(df: Any, ref: float) -> Figure:
     if len(ok):
         ax.legend()
     fig.tight_layout()
-    return Figure("tradeoff_pareto", fig, "tradeoff_points",
-                  "Threshold error vs cost per simulation; lines are each engine's Pareto front, faint dots "
-                  "every setting tried (errors below 1e-6 drawn at 1e-6).")
+    return Figure(
+        "tradeoff_pareto",
+        fig,
+        "tradeoff_points",
+        "Threshold error vs cost per simulation; lines are each engine's Pareto front, faint dots "
+        "every setting tried (errors below 1e-6 drawn at 1e-6).",
+    )

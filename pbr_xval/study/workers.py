@@ -165,8 +165,13 @@ def trajectory_summary(traj: Trajectory, scene: Scene | None = None) -> dict[str
             final_com_disp_m=float(disp[-1]),
         )
     else:
-        out.update(peak_abs_theta_rad=None, peak_tilt_rad=None, final_tilt_rad=None,
-                   max_com_disp_m=None, final_com_disp_m=None)
+        out.update(
+            peak_abs_theta_rad=None,
+            peak_tilt_rad=None,
+            final_tilt_rad=None,
+            max_com_disp_m=None,
+            final_com_disp_m=None,
+        )
     d = traj.diagnostics or {}
     out["finite"] = finite
     out["nan_or_explosion"] = bool(d.get("nan_or_explosion", False)) or not finite
@@ -230,8 +235,11 @@ def simulate_batch(
         except EngineNotAvailable as exc:
             res = {"status": "unavailable", "message": str(exc)}
         except Exception as exc:
-            res = {"status": "failed", "message": f"{type(exc).__name__}: {exc}",
-                   "traceback": traceback.format_exc(limit=8)}
+            res = {
+                "status": "failed",
+                "message": f"{type(exc).__name__}: {exc}",
+                "traceback": traceback.format_exc(limit=8),
+            }
         res["wall_s"] = time.perf_counter() - t0
         out.append(res)
         if stop_on_error and res["status"] != "ok":
@@ -239,8 +247,9 @@ def simulate_batch(
     return out
 
 
-def _child_main(conn: Any, target: str, kwargs: dict[str, Any], extra_sys_path: Sequence[str],
-                stderr_path: str | None) -> None:
+def _child_main(
+    conn: Any, target: str, kwargs: dict[str, Any], extra_sys_path: Sequence[str], stderr_path: str | None
+) -> None:
     os.environ["OMP_NUM_THREADS"] = "1"
     if stderr_path:
         with contextlib.suppress(OSError):
@@ -336,13 +345,28 @@ class SimTask:
     extra_sys_path: tuple[str, ...] = ()
 
     @classmethod
-    def single(cls, scenario_data: dict[str, Any], engine: str, settings: Mapping[str, Any] | None = None,
-               *, source: str | None = None, **kw: Any) -> SimTask:
-        return cls(engine, [{"scenario": scenario_data, "source": source, "settings": dict(settings or {})}], **kw)
+    def single(
+        cls,
+        scenario_data: dict[str, Any],
+        engine: str,
+        settings: Mapping[str, Any] | None = None,
+        *,
+        source: str | None = None,
+        **kw: Any,
+    ) -> SimTask:
+        return cls(
+            engine, [{"scenario": scenario_data, "source": source, "settings": dict(settings or {})}], **kw
+        )
 
     def to_call(self) -> CallTask:
-        return CallTask("pbr_xval.study.workers:simulate_batch", {"runs": self.runs, "engine": self.engine},
-                        self.tag, self.timeout, self.extra_sys_path, label=str(self.engine))
+        return CallTask(
+            "pbr_xval.study.workers:simulate_batch",
+            {"runs": self.runs, "engine": self.engine},
+            self.tag,
+            self.timeout,
+            self.extra_sys_path,
+            label=str(self.engine),
+        )
 
 
 class _Job:
@@ -416,17 +440,23 @@ class _Job:
             os.unlink(self.stderr_path)
         self.conn.close()
         label = self.task.engine if isinstance(self.task, SimTask) else self.call.target
-        res = IsolatedResult(status="ok", engine=str(label), exitcode=code, signal=sig, wall_s=wall, tag=self.task.tag)
+        res = IsolatedResult(
+            status="ok", engine=str(label), exitcode=code, signal=sig, wall_s=wall, tag=self.task.tag
+        )
         if timed_out:
             res.status = "timeout"
             res.message = f"no answer within {self.timeout:g} s; worker killed"
         elif msg is None:
             res.status = "crash"
             how = f"killed by {sig}" if sig else f"exited with code {code}"
-            res.message = f"worker process {how} before answering" + (f"; stderr: {tail[-800:]}" if tail else "")
+            res.message = f"worker process {how} before answering" + (
+                f"; stderr: {tail[-800:]}" if tail else ""
+            )
             if "finished its bootstrapping phase" in tail:
-                res.message = ("worker could not start: the calling script starts workers at import time; "
-                               "wrap its top level in `if __name__ == '__main__':` (spawn re-imports the main module)")
+                res.message = (
+                    "worker could not start: the calling script starts workers at import time; "
+                    "wrap its top level in `if __name__ == '__main__':` (spawn re-imports the main module)"
+                )
         elif msg[0] == "error":
             res.status = "failed"
             res.message = msg[2]
@@ -447,7 +477,9 @@ def _fill_from_runs(res: IsolatedResult) -> None:
     last = bad[0] if bad else runs[-1]
     res.status = last.get("status", "failed") if bad else "ok"
     res.message = str(last.get("message", ""))
-    res.summary = {k: v for k, v in last.items() if k not in ("diagnostics", "settings", "versions", "traceback")}
+    res.summary = {
+        k: v for k, v in last.items() if k not in ("diagnostics", "settings", "versions", "traceback")
+    }
     res.diagnostics = dict(last.get("diagnostics") or {})
     res.settings = dict(last.get("settings") or {})
     res.versions = dict(last.get("versions") or {})
@@ -500,8 +532,13 @@ def run_many(
                 os.unlink(j.stderr_path)
 
 
-def call_isolated(target: str, kwargs: Mapping[str, Any] | None = None, *, timeout: float | None = None,
-                  extra_sys_path: Sequence[str] = ()) -> IsolatedResult:
+def call_isolated(
+    target: str,
+    kwargs: Mapping[str, Any] | None = None,
+    *,
+    timeout: float | None = None,
+    extra_sys_path: Sequence[str] = (),
+) -> IsolatedResult:
     """Call ``"module:function"`` with ``kwargs`` in a worker process; the return value is in ``.value``."""
     task = CallTask(target, dict(kwargs or {}), timeout=timeout, extra_sys_path=tuple(extra_sys_path))
     return next(iter(run_many([task], 1)))
@@ -525,6 +562,12 @@ def run_isolated(
     if not isinstance(scenario_data, Mapping):
         scenario_data, src = scenario_payload(scenario_data)
         source = source or src
-    task = SimTask.single(dict(scenario_data), engine, settings, source=source, timeout=timeout,
-                          extra_sys_path=tuple(extra_sys_path))
+    task = SimTask.single(
+        dict(scenario_data),
+        engine,
+        settings,
+        source=source,
+        timeout=timeout,
+        extra_sys_path=tuple(extra_sys_path),
+    )
     return next(iter(run_many([task], 1)))

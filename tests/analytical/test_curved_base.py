@@ -36,8 +36,13 @@ def polygon_props(poly: np.ndarray) -> tuple[float, float, float, float]:
 
 @pytest.mark.parametrize(
     "body",
-    [ECHO, CurvedBaseLamina(14.73, 1.81, 3.38), CurvedBaseLamina(14.73, 7.24, 3.38), CurvedBaseLamina(2.0, 0.0, 1.0),
-     CurvedBaseLamina(3.0, 1.0, 0.0)],
+    [
+        ECHO,
+        CurvedBaseLamina(14.73, 1.81, 3.38),
+        CurvedBaseLamina(14.73, 7.24, 3.38),
+        CurvedBaseLamina(2.0, 0.0, 1.0),
+        CurvedBaseLamina(3.0, 1.0, 0.0),
+    ],
 )
 def test_mass_properties_vs_polygon(body: CurvedBaseLamina) -> None:
     poly = body.outline(4000)
@@ -166,12 +171,20 @@ def test_h0_no_flat() -> None:
     assert b.uplift_accel(G) == 0.0
     assert b.impact_ratio() == pytest.approx(1.0, abs=1e-14)
     assert b.critical_angle == 0.0  # COM above the arc centre: unstable equilibrium
-    sol = simulate_curved_base(b, lambda t: -0.01 if t > 0.1 else 0.0, 0.3, breakpoints=[0.1], rtol=1e-8,
-                               atol=1e-10)
+    sol = simulate_curved_base(
+        b, lambda t: -0.01 if t > 0.1 else 0.0, 0.3, breakpoints=[0.1], rtol=1e-8, atol=1e-10
+    )
     assert sol.events[0]["kind"] == "uplift" and sol.events[0]["t"] == pytest.approx(0.1, abs=1e-9)
     assert sol.toppled and sol.peak_com_disp == 5.0
-    sol2 = simulate_curved_base(b, lambda t: -0.01 if t > 0.1 else 0.0, 0.5, breakpoints=[0.1],
-                                topple_angle=0.5 * math.pi, rtol=1e-8, atol=1e-10)
+    sol2 = simulate_curved_base(
+        b,
+        lambda t: -0.01 if t > 0.1 else 0.0,
+        0.5,
+        breakpoints=[0.1],
+        topple_angle=0.5 * math.pi,
+        rtol=1e-8,
+        atol=1e-10,
+    )
     assert not sol2.toppled and sol2.theta[-1] > 0
 
 

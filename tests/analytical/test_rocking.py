@@ -76,8 +76,9 @@ def test_sign_convention() -> None:
 
 def _topples_halfsine(body: TwoPivotBody, variant: str, amp: float, uplift: float) -> bool:
     acc, t_p = halfsine(amp, uplift)
-    sol = simulate_rocking(body, acc, 2.5, breakpoints=[t_p], variant=variant, rtol=1e-9, atol=1e-11,
-                           dense_dt=1e-2)
+    sol = simulate_rocking(
+        body, acc, 2.5, breakpoints=[t_p], variant=variant, rtol=1e-9, atol=1e-11, dense_dt=1e-2
+    )
     return sol.toppled
 
 
@@ -111,8 +112,16 @@ def test_rectangular_pulse_linearized_threshold() -> None:
     ref = rectangular_pulse_threshold(ALPHA, p, t1, G)
 
     def topples(amp: float) -> bool:
-        sol = simulate_rocking(BLOCK, lambda t: -amp if t < t1 else 0.0, 3.0, breakpoints=[t1],
-                               variant="linearized", rtol=1e-9, atol=1e-11, dense_dt=1e-2)
+        sol = simulate_rocking(
+            BLOCK,
+            lambda t: -amp if t < t1 else 0.0,
+            3.0,
+            breakpoints=[t1],
+            variant="linearized",
+            rtol=1e-9,
+            atol=1e-11,
+            dense_dt=1e-2,
+        )
         return sol.toppled
 
     thr = bisect(topples, 0.95 * ref, 1.05 * ref, 1e-3 * ref)
@@ -157,7 +166,9 @@ def test_free_rocking_linearized_amplitudes_and_period() -> None:
 
 
 def test_free_rocking_settles_to_rest() -> None:
-    sol = simulate_rocking(BLOCK, lambda t: 0.0, 20.0, theta0=0.2 * ALPHA, rtol=1e-8, atol=1e-10, dense_dt=1e-2)
+    sol = simulate_rocking(
+        BLOCK, lambda t: 0.0, 20.0, theta0=0.2 * ALPHA, rtol=1e-8, atol=1e-10, dense_dt=1e-2
+    )
     assert sol.events[-1]["kind"] == "rest"
     assert sol.n_impacts < 400
     assert sol.theta[-1] == 0.0 and sol.omega[-1] == 0.0
@@ -232,7 +243,9 @@ def test_notched_block_free_rocking_ratio_in_simulation() -> None:
         assert e["omega_plus"] / e["omega_minus"] == pytest.approx(0.8665, abs=5e-4)
 
 
-def _momentum_about(point: np.ndarray, pivot: np.ndarray, com: np.ndarray, omega: float, m: float, ig: float) -> float:
+def _momentum_about(
+    point: np.ndarray, pivot: np.ndarray, com: np.ndarray, omega: float, m: float, ig: float
+) -> float:
     """y angular momentum about ``point`` of a body rotating at ``omega`` about ``pivot`` (x–z plane, +y axis)."""
     rel = com - pivot
     v = omega * np.array([rel[1], -rel[0]])  # ω ŷ × (x, z) = ω (z, −x)

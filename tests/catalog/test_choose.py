@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from pbr_xval.catalog_cli import choose_command, sweep_command
+from pbr_xval.cli.catalog_impl import choose_command, sweep_command
 
 
 def test_choose_fast_engines(tmp_path):
@@ -42,7 +42,9 @@ def test_sweep_command_invalid_catalog(tmp_path):
     from rich.console import Console
 
     p = tmp_path / "bad.toml"
-    p.write_text('[[rock]]\nid = "x"\nshape = "cube"\ndensity = 1.0\n[motions]\n[[motions.pulse]]\ntype = "half_sine"\namplitude = 1.0\n')
+    p.write_text(
+        '[[rock]]\nid = "x"\nshape = "cube"\ndensity = 1.0\n[motions]\n[[motions.pulse]]\ntype = "half_sine"\namplitude = 1.0\n'
+    )
     con = Console(record=True, width=200)
     assert sweep_command(p, tmp_path / "o", None, None, "local", 1, None, None, 0, console=con) == 2
     text = con.export_text()

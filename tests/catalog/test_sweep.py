@@ -56,7 +56,9 @@ def test_local_dask_and_shards_identical(tiny_catalog, tmp_path):
 
 @pytest.mark.slow
 def test_crash_contained_local(tmp_path, monkeypatch):
-    crash_rock = '\n[[rock]]\nid = "crash_me"\nshape = "box"\nhalf_extents = [0.2, 0.2, 0.6]\ndensity = 2400.0\n'
+    crash_rock = (
+        '\n[[rock]]\nid = "crash_me"\nshape = "box"\nhalf_extents = [0.2, 0.2, 0.6]\ndensity = 2400.0\n'
+    )
     p = write_catalog(tmp_path, extra_rocks=crash_rock)
     monkeypatch.setenv("PYTHONPATH", str(HERE) + os.pathsep + os.environ.get("PYTHONPATH", ""))
     cat = load_catalog(p)
@@ -72,17 +74,29 @@ def test_crash_contained_local(tmp_path, monkeypatch):
 @pytest.mark.slow
 def test_crash_contained_dask(tmp_path, monkeypatch):
     pytest.importorskip("distributed")
-    crash_rock = '\n[[rock]]\nid = "crash_me"\nshape = "box"\nhalf_extents = [0.2, 0.2, 0.6]\ndensity = 2400.0\n'
+    crash_rock = (
+        '\n[[rock]]\nid = "crash_me"\nshape = "box"\nhalf_extents = [0.2, 0.2, 0.6]\ndensity = 2400.0\n'
+    )
     p = write_catalog(tmp_path, extra_rocks=crash_rock)
     monkeypatch.setenv("PYTHONPATH", str(HERE) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    s = run_sweep(load_catalog(p), tmp_path / "out", engines=["crash_engine:CrashEngine"], executor="dask", workers=2, progress=False)
+    s = run_sweep(
+        load_catalog(p),
+        tmp_path / "out",
+        engines=["crash_engine:CrashEngine"],
+        executor="dask",
+        workers=2,
+        progress=False,
+    )
     assert s.failed == 2 and s.done == 4
     assert all("KilledWorker" in f["reason"] for f in s.failures)
 
 
 def test_sigkill_and_resume(tmp_path):
     # more chunks (chunk_size 1) so the kill lands mid-sweep
-    p = write_catalog(tmp_path, **{"chunk_size = 2": "chunk_size = 1", "amplitude = [3.0, 9.0]": "amplitude = [3.0, 5.0, 9.0]"})
+    p = write_catalog(
+        tmp_path,
+        **{"chunk_size = 2": "chunk_size = 1", "amplitude = [3.0, 9.0]": "amplitude = [3.0, 5.0, 9.0]"},
+    )
     out = tmp_path / "out"
     cat = load_catalog(p)
     n_chunks = len(build_chunks(cat))

@@ -135,8 +135,13 @@ def test_mesh_box_matches_primitive(tmp_path):
 
 
 def test_notched_block_matches_housner_engine():
-    rock = {"shape": "notched_block", "half_extents": [0.2, 0.2, 0.6], "notch_width": 0.2,
-            "notch_height": 0.3, "density": 2400.0}
+    rock = {
+        "shape": "notched_block",
+        "half_extents": [0.2, 0.2, 0.6],
+        "notch_width": 0.2,
+        "notch_height": 0.3,
+        "density": 2400.0,
+    }
     # threshold within 1 % of the two-pivot ODE's 5.1241
     assert not toppled(NOTCHED * 0.99, rock=rock)
     assert toppled(NOTCHED * 1.01, rock=rock)
@@ -185,8 +190,13 @@ def test_engine_exception_is_reported_as_failed(monkeypatch):
 
 def test_notched_block_coacd_parts_are_cached(tmp_path, monkeypatch):
     monkeypatch.setenv("PBR_XVAL_CACHE", str(tmp_path))
-    rock = {"shape": "notched_block", "half_extents": [0.2, 0.2, 0.6], "notch_width": 0.2,
-            "notch_height": 0.3, "density": 2400.0}
+    rock = {
+        "shape": "notched_block",
+        "half_extents": [0.2, 0.2, 0.6],
+        "notch_width": 0.2,
+        "notch_height": 0.3,
+        "density": 2400.0,
+    }
     # CoACD (threshold 0.05) cuts the notched block into 3 exact convex parts (notes §4);
     # the compound's threshold is within 2 % of 5.1241 (notes: 5.0997 at dt 1e-3)
     lo = run_scene(scene_at(NOTCHED * 0.98, rock=rock), "pybullet", {"collision": "coacd"})
@@ -207,8 +217,17 @@ def test_cli_says_engine_default_never_rocks():
     from pbr_xval.cli import app
 
     res = CliRunner().invoke(
-        app, ["threshold", str(Path(ROOT) / "examples" / "housner_halfsine.toml"), "--engine", "pybullet",
-              "--profile", "engine-default", "--n-grid", "3"],
+        app,
+        [
+            "threshold",
+            str(Path(ROOT) / "examples" / "housner_halfsine.toml"),
+            "--engine",
+            "pybullet",
+            "--profile",
+            "engine-default",
+            "--n-grid",
+            "3",
+        ],
     )
     assert res.exit_code == 0, res.output
     assert "never toppled" in res.output and "never rocked" in res.output

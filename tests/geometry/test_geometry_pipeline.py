@@ -52,9 +52,13 @@ def test_box_mass_properties_closed_form():
     assert mp.mass == pytest.approx(m, rel=1e-9)
     assert _rel(mp.com, [0, 0, c]) < 1e-9
     assert _rel(mp.inertia, m / 3 * np.diag([b**2 + c**2, a**2 + c**2, a**2 + b**2])) < 1e-9
-    assert _rel(mp.principal_moments, sorted(m / 3 * np.array([b**2 + c**2, a**2 + c**2, a**2 + b**2]))) < 1e-9
+    assert (
+        _rel(mp.principal_moments, sorted(m / 3 * np.array([b**2 + c**2, a**2 + c**2, a**2 + b**2]))) < 1e-9
+    )
     # mass given instead of density
-    assert exact_mass_properties(box_mesh(np.array([a, b, c])), mass=m).density == pytest.approx(RHO, rel=1e-12)
+    assert exact_mass_properties(box_mesh(np.array([a, b, c])), mass=m).density == pytest.approx(
+        RHO, rel=1e-12
+    )
 
 
 def test_notched_block_mass_properties_closed_form():
@@ -69,7 +73,9 @@ def test_notched_block_mass_properties_closed_form():
     masses = [RHO * s[0] * s[1] * s[2] for s, _ in parts]
     m = sum(masses)
     com = sum(mi * np.array(c) for mi, (_, c) in zip(masses, parts, strict=True)) / m
-    inertia = sum(_box_inertia(mi, *s) + _shift(mi, np.array(c) - com) for mi, (s, c) in zip(masses, parts, strict=True))
+    inertia = sum(
+        _box_inertia(mi, *s) + _shift(mi, np.array(c) - com) for mi, (s, c) in zip(masses, parts, strict=True)
+    )
     assert mp.mass == pytest.approx(m, rel=1e-9)
     assert _rel(mp.com, com) < 1e-9
     assert _rel(mp.inertia, inertia) < 1e-9
@@ -245,7 +251,7 @@ def test_convex_parts_cached(tmp_path):
 def test_rock_command_on_a_synthetic_scan(tmp_path):
     from rich.console import Console
 
-    from pbr_xval.rock_cli import rock_command
+    from pbr_xval.cli.rock_impl import rock_command
 
     m, _ = synthetic_rock(seed=5)
     scan = write_point_cloud(simulate_scan(m, seed=5) + np.array([100.0, 200.0, 50.0]), tmp_path / "syn.xyz")

@@ -80,7 +80,9 @@ def test_against_solve_ivp():
 
         sol = solve_ivp(rhs, (0, t[-1]), [0.0, 0.0], t_eval=t, rtol=1e-8, atol=1e-11, max_step=dt)
         assert s == pytest.approx(w**2 * np.max(np.abs(sol.y[0])), rel=0.005)
-        np.testing.assert_allclose(sdof_response(a, dt, T, zeta), sol.y[0], atol=1e-5 * np.max(np.abs(sol.y[0])))
+        np.testing.assert_allclose(
+            sdof_response(a, dt, T, zeta), sol.y[0], atol=1e-5 * np.max(np.abs(sol.y[0]))
+        )
 
 
 def test_spectrum_validation():
@@ -125,7 +127,9 @@ def test_excitation3d_azimuth_and_vertical():
         np.testing.assert_allclose(x[:, 0], 0.0, atol=1e-12)
         np.testing.assert_allclose(x[:, 2], getattr(v, kind)(t))
     e2 = Excitation3D(h, math.radians(30))
-    np.testing.assert_allclose(e2.acceleration(0.1), h.acceleration(0.1) * np.array([math.sqrt(3) / 2, 0.5, 0.0]))
+    np.testing.assert_allclose(
+        e2.acceleration(0.1), h.acceleration(0.1) * np.array([math.sqrt(3) / 2, 0.5, 0.0])
+    )
     assert e.duration == v.duration and e.breakpoints == (0.0, h.duration, v.duration)
     json.dumps(e.describe())
 

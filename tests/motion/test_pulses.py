@@ -74,7 +74,10 @@ def test_rest_at_start_and_zero_outside(key):
     v_end = m.velocity(m.duration)
     np.testing.assert_allclose(m.velocity(t_after), v_end, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(
-        m.displacement(t_after), m.displacement(m.duration) + v_end * (t_after - m.duration), rtol=1e-12, atol=1e-12
+        m.displacement(t_after),
+        m.displacement(m.duration) + v_end * (t_after - m.duration),
+        rtol=1e-12,
+        atol=1e-12,
     )
 
 

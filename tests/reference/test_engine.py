@@ -22,13 +22,20 @@ G = 9.81
 def _housner(amplitude: float, **kw):
     return compile_scene(
         conf.housner_scenario(
-            excitation={"type": "half_sine", "amplitude": amplitude, "frequency": 1.0, "phase": "housner_uplift"},
+            excitation={
+                "type": "half_sine",
+                "amplitude": amplitude,
+                "frequency": 1.0,
+                "phase": "housner_uplift",
+            },
             **kw,
         )
     )
 
 
-def _slab(amplitude: float, mu_s: float, mu_d: float, half_extents=(0.5, 0.5, 0.1), duration=0.5, excitation=None):
+def _slab(
+    amplitude: float, mu_s: float, mu_d: float, half_extents=(0.5, 0.5, 0.1), duration=0.5, excitation=None
+):
     exc = excitation or {"type": "rectangular", "amplitude": amplitude, "pulse_duration": 10.0}
     return compile_scene(
         conf.housner_scenario(
@@ -49,8 +56,19 @@ def test_engine_interface():
     assert caps.dims == 3 and caps.sliding and caps.restitution and caps.vertical and caps.deterministic
     assert caps.shapes == frozenset({"box", "notched_block", "curved_base", "mesh"})
     prof = eng.profiles()["faithful"]
-    for key in ("timestep", "epsilon", "max_stepbacks", "min_timestep", "iterations", "iteration_tol",
-                "lcp_method", "impact_selection", "nodes", "max_nodes", "ground_motion"):
+    for key in (
+        "timestep",
+        "epsilon",
+        "max_stepbacks",
+        "min_timestep",
+        "iterations",
+        "iteration_tol",
+        "lcp_method",
+        "impact_selection",
+        "nodes",
+        "max_nodes",
+        "ground_motion",
+    ):
         assert key in prof
     assert prof["timestep"] == 1e-3
 
@@ -68,8 +86,11 @@ def test_housner_bracket_fast():
 
 def test_impact_ratio_is_housner_rule():
     """Every rocking impact of the free-rocking block has ω⁺/ω⁻ = 1 − 1.5 sin²α = 0.850."""
-    scene = compile_scene(conf.housner_scenario(name="free", duration=1.2, excitation={"type": "none"},
-                                                initial={"theta_over_alpha": 0.5}))
+    scene = compile_scene(
+        conf.housner_scenario(
+            name="free", duration=1.2, excitation={"type": "none"}, initial={"theta_over_alpha": 0.5}
+        )
+    )
     traj = run_scene(scene, "reference")
     assert traj.ok, traj.message
     ratios = np.array([e.data["ratio"] for e in traj.impacts() if e.data["v_n_min"] < -0.01])
@@ -102,8 +123,11 @@ def test_mesh_box_same_trajectory_fast(tmp_path):
     path = tmp_path / "box.obj"
     trimesh.creation.box(extents=(0.4, 0.4, 1.2)).export(path)
     exc = {"type": "half_sine", "amplitude": 5.6, "frequency": 1.0, "phase": "housner_uplift"}
-    mesh = compile_scene(conf.housner_scenario(duration=1.2, excitation=exc,
-                                               rock={"shape": "mesh", "path": str(path), "density": 2400.0}))
+    mesh = compile_scene(
+        conf.housner_scenario(
+            duration=1.2, excitation=exc, rock={"shape": "mesh", "path": str(path), "density": 2400.0}
+        )
+    )
     box = compile_scene(conf.housner_scenario(duration=1.2, excitation=exc))
     tm, tb = run_scene(mesh, "reference"), run_scene(box, "reference")
     assert tm.ok and tb.ok
@@ -180,7 +204,9 @@ def test_curved_base_grid_agrees_with_analytical():
     for pgv in (1.0, 2.0, 4.0, 6.0, 8.0):
         for period in (1.0, 2.0, 3.0):
             scn = conf.housner_scenario(
-                name="reference_curved", duration=max(8.0, 3 * period), rock=rock,
+                name="reference_curved",
+                duration=max(8.0, 3 * period),
+                rock=rock,
                 excitation={"type": "sawtooth", "pgv": pgv, "period": period},
             )
             scene = compile_scene(scn)

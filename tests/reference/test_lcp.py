@@ -260,7 +260,9 @@ def test_duplicate_contacts(solver) -> None:
 
 
 @pytest.mark.parametrize("solver", SOLVERS)
-@pytest.mark.parametrize("u_minus", [U_IMPACT, np.array([0, 0, -1.0, 0, 0, 0]), np.array([0.5, 0, -0.2, 0, 2.0, 0])])
+@pytest.mark.parametrize(
+    "u_minus", [U_IMPACT, np.array([0, 0, -1.0, 0, 0, 0]), np.array([0.5, 0, -0.2, 0, 2.0, 0])]
+)
 def test_singular_box_eight_contacts(solver, u_minus: np.ndarray) -> None:
     pts = bottom_points("eight")
     M, q, J = impact_problem(pts, u_minus)
@@ -398,8 +400,15 @@ def test_closest_matches_scipy_projection() -> None:
     R = U[:, sv > 1e-10 * sv[0]].T * 1e3  # independent rows of the equality M z = w - q
     cons = [{"type": "eq", "fun": lambda z: R @ (M @ z - c), "jac": lambda z: R @ M}]
     bounds = [(0, None) if i in S else (0, 0) for i in range(8)]
-    opt = minimize(lambda z: 0.5 * np.sum((z - ref) ** 2), x0, jac=lambda z: z - ref, method="SLSQP",
-                   bounds=bounds, constraints=cons, options={"ftol": 1e-14, "maxiter": 500})
+    opt = minimize(
+        lambda z: 0.5 * np.sum((z - ref) ** 2),
+        x0,
+        jac=lambda z: z - ref,
+        method="SLSQP",
+        bounds=bounds,
+        constraints=cons,
+        options={"ftol": 1e-14, "maxiter": 500},
+    )
     assert opt.success
     np.testing.assert_allclose(res.z, opt.x, atol=1e-5 * np.abs(opt.x).max())
 
@@ -498,8 +507,9 @@ def test_pyramid_lcp_agrees_with_cone(ratio: float) -> None:
     assert pyr.iterations <= 4 * (4 * 10)  # Lemke pivots on a 40-variable LCP
     W = box_inverse_mass()
     np.testing.assert_allclose(W @ (J.T @ pyr.f + F_ext), W @ (J.T @ cone.f + F_ext), atol=1e-8)
-    np.testing.assert_allclose(pyr.f.reshape(4, 3).sum(axis=0), cone.f.reshape(4, 3).sum(axis=0),
-                               rtol=1e-8, atol=1e-6)
+    np.testing.assert_allclose(
+        pyr.f.reshape(4, 3).sum(axis=0), cone.f.reshape(4, 3).sum(axis=0), rtol=1e-8, atol=1e-6
+    )
 
 
 def test_friction_input_validation() -> None:

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from pbr_xval.report_cli import regress_command
+from pbr_xval.cli.report_impl import regress_command
 from pbr_xval.study.regress import GoldenError, read_golden, regress
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
@@ -40,7 +40,7 @@ def test_committed_golden_tables_parse() -> None:
 
 def test_regress_passes_fails_and_updates(tmp_path: Path) -> None:
     rows = (
-        'housner.toml,housner,faithful,excitation.amplitude,5.638,0.003,,exact\n'
+        "housner.toml,housner,faithful,excitation.amplitude,5.638,0.003,,exact\n"
         'housner.toml,housner,,excitation.amplitude,5.4418,0.003,"{""variant"": ""linearized""}","lin, with comma"\n'
     )
     good = _golden(tmp_path, rows)
@@ -88,7 +88,7 @@ def test_engine_filter_and_errors(tmp_path: Path) -> None:
         tmp_path,
         "housner.toml,housner,,excitation.amplitude,5.638,0.003,,\n"
         "housner.toml,mujoco,,excitation.amplitude,5.6387,0.01,,\n"
-        "housner.toml,housner,,excitation.amplitude,5.638,0.003,\"{\"\"no_such\"\": 1}\",\n",
+        'housner.toml,housner,,excitation.amplitude,5.638,0.003,"{""no_such"": 1}",\n',
     )
     res = regress(p, engines=["housner"])
     assert [r.row.engine for r in res.rows] == ["housner", "housner"]
@@ -103,7 +103,10 @@ def test_engine_filter_and_errors(tmp_path: Path) -> None:
         ("scenario,engine\nx,y\n", r"missing column"),
         (HEADER + "h.toml,housner,,excitation.amplitude,abc,0.003,,\n", r"line 2: column 'threshold'"),
         (HEADER + "h.toml,housner,,excitation.amplitude,5.6,0,,\n", r"column 'tolerance': must be > 0"),
-        (HEADER + "h.toml,housner,,excitation.amplitude,5.6,0.01,{bad,\n", r"column 'settings': not valid JSON"),
+        (
+            HEADER + "h.toml,housner,,excitation.amplitude,5.6,0.01,{bad,\n",
+            r"column 'settings': not valid JSON",
+        ),
         (HEADER.strip() + ",colour\n", r"unknown column"),
     ],
 )

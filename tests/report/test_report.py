@@ -116,11 +116,19 @@ def fake_result(kind: str = "thresholds", title: str = "Fake thresholds", n: int
         title=title,
         tables={"thresholds": df, "theta <long>": long},
         figures=[
-            Figure("thresholds", fig, "thresholds", "Minimum toppling amplitude per engine; **5.638** is Housner's."),
+            Figure(
+                "thresholds",
+                fig,
+                "thresholds",
+                "Minimum toppling amplitude per engine; **5.638** is Housner's.",
+            ),
             Figure("theta", fig2, "theta <long>", "θ(t) & friends <script>alert(1)</script>"),
         ],
-        summary=["all engines within **0.2 %** of `5.638` m/s²", "a <b>raw</b> tag is escaped",
-                 "| engine | value |\n|---|---|\n| housner | 5.638 |"],
+        summary=[
+            "all engines within **0.2 %** of `5.638` m/s²",
+            "a <b>raw</b> tag is escaped",
+            "| engine | value |\n|---|---|\n| housner | 5.638 |",
+        ],
         headline={"threshold_m_s2": {"housner": 5.638, "mujoco": 5.6387}, "max_rel_err": 1.2e-3},
         provenance={
             "scenario_hash": "ab" * 32,
@@ -139,7 +147,9 @@ def test_write_report_is_valid_and_self_contained(tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
     results = [fake_result(), spec_mod.failed_result("histories", "Broken study", RuntimeError("boom <x>"))]
-    out = write_report(results, tmp_path / "reports" / "demo", provenance={"command_line": "pbr-xval report x.toml"})
+    out = write_report(
+        results, tmp_path / "reports" / "demo", provenance={"command_line": "pbr-xval report x.toml"}
+    )
     assert out == tmp_path / "reports" / "demo"
     c = check_html(out)
     assert len(c.imgs) == 2
@@ -166,7 +176,9 @@ def test_write_report_is_valid_and_self_contained(tmp_path: Path) -> None:
     assert "First 60 of 500 rows" in html
     md = (out / "summary.md").read_text()
     assert "\n| housner | 5.638 |" in md and "<td>housner</td>" in html
-    assert "# demo" in md and "**FAILED**" in md and "0.2 %" in md and "| threshold_m_s2.mujoco | 5.6387 |" in md
+    assert (
+        "# demo" in md and "**FAILED**" in md and "0.2 %" in md and "| threshold_m_s2.mujoco | 5.6387 |" in md
+    )
     prov = json.loads((out / "provenance.json").read_text())
     assert prov["engines"]["mujoco"]["versions"]["mujoco"] == "3.2"
     assert not list(out.parent.glob("*.tmp-*")) and not list(out.parent.glob("*.old-*"))
@@ -198,9 +210,18 @@ def test_report_renders_in_headless_chromium(tmp_path: Path) -> None:
     out = write_report([fake_result()], tmp_path / "r", provenance={})
     png = tmp_path / "shot.png"
     cmd = [
-        "/usr/bin/chromium", "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync", "--no-first-run", f"--user-data-dir={tmp_path / 'prof'}",
-        f"--screenshot={png}", "--window-size=1200,2000", (out / "index.html").resolve().as_uri(),
+        "/usr/bin/chromium",
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        "--no-first-run",
+        f"--user-data-dir={tmp_path / 'prof'}",
+        f"--screenshot={png}",
+        "--window-size=1200,2000",
+        (out / "index.html").resolve().as_uri(),
     ]
     subprocess.run(cmd, check=True, timeout=60, capture_output=True)
     assert png.is_file() and png.stat().st_size > 10_000
@@ -242,7 +263,9 @@ def _write(tmp_path: Path, body: str) -> Path:
     return p
 
 
-def test_study_file_runs_and_failed_section_does_not_stop_the_others(tmp_path: Path, fake_study: None) -> None:
+def test_study_file_runs_and_failed_section_does_not_stop_the_others(
+    tmp_path: Path, fake_study: None
+) -> None:
     p = _write(
         tmp_path,
         """
@@ -329,15 +352,36 @@ def test_study_file_with_scenarios_and_synthetic_rock(tmp_path: Path, fake_study
     ("body", "match"),
     [
         ('name = "x"\nscenario = "housner.toml"\n', r"study.toml: key 'study'"),
-        ('name = "x"\nscenario = "nope.toml"\n[[study]]\ntype = "fake"\n', r"(?s)key 'scenario'.*cannot read"),
-        ('name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "nope"\n', r"key 'study\[0\].type': expected one of"),
+        (
+            'name = "x"\nscenario = "nope.toml"\n[[study]]\ntype = "fake"\n',
+            r"(?s)key 'scenario'.*cannot read",
+        ),
+        (
+            'name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "nope"\n',
+            r"key 'study\[0\].type': expected one of",
+        ),
         ('name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nn = "a"\n', r"key 'study\[0\].n'"),
-        ('name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nbogus = 1\n', r"key 'study\[0\].bogus': unknown key"),
-        ('name = "x"\nscenario = "housner.toml"\nengines = ["warp"]\n[[study]]\ntype = "fake"\n', r"key 'engines': unknown engine 'warp'"),
-        ('name = "x"\nscenario = "housner.toml"\ncolour = 1\n[[study]]\ntype = "fake"\n', r"key 'colour': unknown key"),
+        (
+            'name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nbogus = 1\n',
+            r"key 'study\[0\].bogus': unknown key",
+        ),
+        (
+            'name = "x"\nscenario = "housner.toml"\nengines = ["warp"]\n[[study]]\ntype = "fake"\n',
+            r"key 'engines': unknown engine 'warp'",
+        ),
+        (
+            'name = "x"\nscenario = "housner.toml"\ncolour = 1\n[[study]]\ntype = "fake"\n',
+            r"key 'colour': unknown key",
+        ),
         ('name = "x y"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\n', r"key 'name'"),
-        ('name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nscenario = "other"\n', r"unknown scenario label 'other'"),
-        ('name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nquick = { n = "z" }\n', r"key 'study\[0\].n'"),
+        (
+            'name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nscenario = "other"\n',
+            r"unknown scenario label 'other'",
+        ),
+        (
+            'name = "x"\nscenario = "housner.toml"\n[[study]]\ntype = "fake"\nquick = { n = "z" }\n',
+            r"key 'study\[0\].n'",
+        ),
         ("name = \n", r"not valid TOML"),
     ],
 )
@@ -351,7 +395,7 @@ def test_study_file_errors_name_file_and_key(tmp_path: Path, fake_study: None, b
 def test_report_command_end_to_end(tmp_path: Path, fake_study: None) -> None:
     from rich.console import Console
 
-    from pbr_xval.report_cli import report_command
+    from pbr_xval.cli.report_impl import report_command
 
     p = _write(
         tmp_path,

@@ -67,5 +67,13 @@ class StillEngine(_Base):
         t = np.linspace(0, scene.duration, n)
         com = np.tile(scene.rock.com, (n, 1))
         quat = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-        return Trajectory(self.name, t, com, quat, np.zeros((n, 3)), events=[Event("rest", 0.0)],
-                          diagnostics={"max_penetration_m": 0.0}, settings=dict(settings or {}))
+        return Trajectory(
+            self.name,
+            t,
+            com,
+            quat,
+            np.zeros((n, 3)),
+            events=[Event("rest", 0.0)],
+            diagnostics={"max_penetration_m": 0.0},
+            settings=dict(settings or {}),
+        )

@@ -41,8 +41,9 @@ def test_curved_base_self_agreement_and_map() -> None:
 
 def test_variants_and_pool() -> None:
     """Two variants (r) on a 1 × 2 grid through a 2-process pool give the in-process numbers."""
-    cfg = fragility.FragilityConfig(x_values=[6.0], y_values=[1.0, 2.0], variants=[{"rock.r": 3.62}, {"rock.r": 7.24}],
-                                    max_workers=2)
+    cfg = fragility.FragilityConfig(
+        x_values=[6.0], y_values=[1.0, 2.0], variants=[{"rock.r": 3.62}, {"rock.r": 7.24}], max_workers=2
+    )
     res = fragility.run(cfg, _scenario(), ["curved_base"])
     cells = res.tables["fragility_cells"]
     assert len(cells) == 4 and (cells["status"] == "ok").all()

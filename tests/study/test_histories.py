@@ -32,8 +32,15 @@ def test_reference_run(result) -> None:
 
 def test_self_comparison_is_zero(result) -> None:
     h = result.tables["histories_metrics"].set_index("engine").loc["housner"]
-    for col in ("peak_rel_error", "rms_theta_err_to_impact1_rad", "uplift_dt_s", "impact1_dt_s", "impact2_dt_s",
-                "impact3_dt_s", "rebound1_diff"):
+    for col in (
+        "peak_rel_error",
+        "rms_theta_err_to_impact1_rad",
+        "uplift_dt_s",
+        "impact1_dt_s",
+        "impact2_dt_s",
+        "impact3_dt_s",
+        "rebound1_diff",
+    ):
         assert h[col] == 0.0, col
 
 

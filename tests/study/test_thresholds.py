@@ -37,10 +37,13 @@ def test_housner_minimum_and_tables() -> None:
 def test_non_monotonic_two_bands() -> None:
     """Makris & Roussos type-B (one-cosine) pulse, f = 2 Hz, on Housner's block: the block topples
     (after an impact) at ~11–16 m/s², survives above, and topples again (no impact) from ~28 m/s²."""
-    scn = housner_scenario(duration=3.0, excitation={"type": "one_cosine", "amplitude": 12.0, "frequency": 2.0})
+    scn = housner_scenario(
+        duration=3.0, excitation={"type": "one_cosine", "amplitude": 12.0, "frequency": 2.0}
+    )
     fast = {"omega_rest": 1e-3}
-    cfg = thresholds.ThresholdsConfig(lo=8.0, hi=40.0, n_grid=12, rel_tol=1e-3, reference_engine="housner",
-                                      settings={"housner": fast})
+    cfg = thresholds.ThresholdsConfig(
+        lo=8.0, hi=40.0, n_grid=12, rel_tol=1e-3, reference_engine="housner", settings={"housner": fast}
+    )
     res = thresholds.run(cfg, scn, ["housner"])
     bands = res.tables["bands"]
     assert len(bands) >= 2, bands

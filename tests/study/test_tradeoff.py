@@ -23,12 +23,14 @@ def test_pareto_front_synthetic():
 
 
 def test_recommend_picks_cheapest_within_budget():
-    pts = pd.DataFrame({
-        "engine": ["a", "a", "a", "b", "b"],
-        "setting": ["dt=1e-2", "dt=1e-3", "dt=1e-4", "x", "y"],
-        "wall_s_per_sim": [0.01, 0.1, 1.0, 0.5, 0.2],
-        "rel_error": [-0.03, 0.008, 0.0001, 0.001, -0.015],
-    })
+    pts = pd.DataFrame(
+        {
+            "engine": ["a", "a", "a", "b", "b"],
+            "setting": ["dt=1e-2", "dt=1e-3", "dt=1e-4", "x", "y"],
+            "wall_s_per_sim": [0.01, 0.1, 1.0, 0.5, 0.2],
+            "rel_error": [-0.03, 0.008, 0.0001, 0.001, -0.015],
+        }
+    )
     pts["abs_rel_error"] = pts["rel_error"].abs()
     rec = recommend(pts, [0.005, 0.01, 0.02, 0.05])
     a = rec[rec.engine == "a"].set_index("budget")["setting"].to_dict()
@@ -41,14 +43,25 @@ def test_recommend_picks_cheapest_within_budget():
 
 def test_study_records_failures_and_out_of_range():
     # a rock that never topples (out of range) and an engine that segfaults: both recorded
-    cfg = TradeoffConfig(reference=5.638, timesteps=[1e-3], iterations={}, profiles=["faithful"], n_grid=2,
-                         timeout_per_point=60)
-    res = run(cfg, housner_scenario(duration=0.2), [f"{CRASHY}:StillEngine", f"{CRASHY}:SegfaultEngine", "nope"])
+    cfg = TradeoffConfig(
+        reference=5.638,
+        timesteps=[1e-3],
+        iterations={},
+        profiles=["faithful"],
+        n_grid=2,
+        timeout_per_point=60,
+    )
+    res = run(
+        cfg, housner_scenario(duration=0.2), [f"{CRASHY}:StillEngine", f"{CRASHY}:SegfaultEngine", "nope"]
+    )
     pts = res.tables["tradeoff_points"].set_index("engine")
     assert pts.loc["still", "status"] == "out_of_range"
     assert pts.loc["segfault", "status"] == "crash"
     assert any("nope" in n for n in res.notes)
-    assert res.tables["tradeoff_recommendations"].empty or res.tables["tradeoff_recommendations"]["setting"].isna().all()
+    assert (
+        res.tables["tradeoff_recommendations"].empty
+        or res.tables["tradeoff_recommendations"]["setting"].isna().all()
+    )
     assert res.figures and res.figures[0].table == "tradeoff_points"
 
 

@@ -59,7 +59,16 @@ def test_many_contains_crash_hang_and_errors():
 def test_call_isolated_and_label():
     res = call_isolated("math:sqrt", {}, timeout=30)
     assert res.status == "failed" and "TypeError" in res.message
-    res = next(iter(run_many([CallTask("pbr_xval.study.workers:simulate_batch",
-                                       {"runs": [{}], "engine": "no_such_engine"})])))
+    res = next(
+        iter(
+            run_many(
+                [
+                    CallTask(
+                        "pbr_xval.study.workers:simulate_batch", {"runs": [{}], "engine": "no_such_engine"}
+                    )
+                ]
+            )
+        )
+    )
     assert res.ok and res.value[0]["status"] == "unavailable"
     assert engine_label(f"{CRASHY}:SegfaultEngine") == "segfault"

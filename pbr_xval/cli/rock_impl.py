@@ -113,8 +113,11 @@ def rock_command(
     f3 = lambda a: "(" + ", ".join(f"{x:.4f}" for x in a) + ")"  # noqa: E731
     t = Table(title=f"rock model: {model.name}", show_header=False)
     t.add_row("mass", f"{d['mass_kg']:.2f} kg  (density {d['density_kg_m3']:.1f} kg/m³)")
-    t.add_row("volume", f"{d['volume_m3']:.6f} m³  (nodes: {d['node_estimate']['volume_m3']:.6f} m³, "
-              f"{d['node_estimate']['rel_volume_vs_exact']:+.2%} at h = {d['node_estimate']['spacing_m']:.4f} m)")
+    t.add_row(
+        "volume",
+        f"{d['volume_m3']:.6f} m³  (nodes: {d['node_estimate']['volume_m3']:.6f} m³, "
+        f"{d['node_estimate']['rel_volume_vs_exact']:+.2%} at h = {d['node_estimate']['spacing_m']:.4f} m)",
+    )
     t.add_row("pose", str(d["info"].get("pose_kind")))
     t.add_row("COM (rest frame)", f3(d["com_rest_m"]) + " m")
     t.add_row("COM (scan coords)", f3(d["com_scan_m"]) + " m")
@@ -128,12 +131,20 @@ def rock_command(
         f"{c['n_points']} points within {c['eps_m']:.4f} m; support polygon area {c['area_m2']:.5f} m²; "
         f"min rectangle {c['min_rectangle']['extents'][0]:.3f} × {c['min_rectangle']['extents'][1]:.3f} m",
     )
-    t.add_row("critical tilt α", f"min {ct['min_deg']:.2f}° (at φ = {ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}°")
+    t.add_row(
+        "critical tilt α",
+        f"min {ct['min_deg']:.2f}° (at φ = {ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}°",
+    )
     phis = np.asarray(ct["phi_deg"])
     alphas = np.asarray(ct["alpha_deg"])
-    per30 = [f"{p:.0f}°: {np.interp(p, np.append(phis, 360), np.append(alphas, alphas[0])):.1f}°" for p in range(0, 360, 30)]
+    per30 = [
+        f"{p:.0f}°: {np.interp(p, np.append(phis, 360), np.append(alphas, alphas[0])):.1f}°"
+        for p in range(0, 360, 30)
+    ]
     t.add_row("α per 30°", ", ".join(per30))
-    t.add_row("toppling g·tan α", f"{ct['toppling_accel_min_m_s2']:.3f} – {ct['toppling_accel_max_m_s2']:.3f} m/s²")
+    t.add_row(
+        "toppling g·tan α", f"{ct['toppling_accel_min_m_s2']:.3f} – {ct['toppling_accel_max_m_s2']:.3f} m/s²"
+    )
     for w in d["info"].get("reconstruction", {}).get("warnings", []):
         t.add_row("[yellow]reconstruction[/yellow]", w)
     for r in d["info"]["scan"].get("repairs", []):

@@ -59,7 +59,8 @@ def sweep_command(
     n_sims = len(cat.rocks) * len(cat.motions) * len(engines or cat.engines)
     con.print(
         f"catalog {cat.name!r}: {len(cat.rocks)} rocks × {len(cat.motions)} motions × "
-        f"{len(engines or cat.engines)} engines = {n_sims} simulations" + (f" (shard {shard})" if shard else ""),
+        f"{len(engines or cat.engines)} engines = {n_sims} simulations"
+        + (f" (shard {shard})" if shard else ""),
         highlight=False,
     )
     summary = run_sweep(

@@ -108,11 +108,15 @@ def report_command(
     for r in results:
         bad = is_failed(r)
         status = f"[red]{r.provenance.get('status')}[/]" if bad else "[green]ok[/]"
-        table.add_row(escape(r.title), status, f"{r.wall_time:.1f}", escape(r.summary[0] if r.summary else ""))
+        table.add_row(
+            escape(r.title), status, f"{r.wall_time:.1f}", escape(r.summary[0] if r.summary else "")
+        )
     con.print(table)
     for n in spec.notes:
         con.print(f"[dim]note: {escape(n)}[/]")
-    con.print(f"report written to [bold]{escape(str(out / 'index.html'))}[/] (summary: {escape(str(out / 'summary.md'))})")
+    con.print(
+        f"report written to [bold]{escape(str(out / 'index.html'))}[/] (summary: {escape(str(out / 'summary.md'))})"
+    )
     if spec.interrupted:
         return 130
     return 1 if any(is_failed(r) for r in results) else 0
@@ -174,7 +178,9 @@ def regress_command(
     con.print(table)
     for r in res.table_rows():
         if r["message"]:
-            con.print(f"  [{colours[r['status']]}]{r['status']}[/] {escape(r['row'])}: {escape(r['message'])}")
+            con.print(
+                f"  [{colours[r['status']]}]{r['status']}[/] {escape(r['row'])}: {escape(r['message'])}"
+            )
     c = res.counts
     con.print(
         f"{c['PASS']} passed, {c['FAIL']} failed, {c['ERROR']} errors, {c['SKIP']} skipped"
@@ -185,8 +191,10 @@ def regress_command(
             f.write(res.markdown())
     if update:
         n = sum(r.measured is not None for r in res.rows)
-        con.print(f"[bold]{golden}[/] rewritten: {n} threshold(s) updated; tolerances and notes kept. "
-                  "Review with `git diff` and commit.")
+        con.print(
+            f"[bold]{golden}[/] rewritten: {n} threshold(s) updated; tolerances and notes kept. "
+            "Review with `git diff` and commit."
+        )
         # after an update the table holds the measured values: only errors fail
         return 1 if (c["ERROR"] or (strict and c["SKIP"])) else 0
     return res.exit_code

@@ -1,0 +1,52 @@
+"""``pbr-xval rock``: a scan (mesh or point cloud) → rock model."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from pbr_xval.cli._app import app, console
+
+
+@app.command()
+def rock(
+    scan: Annotated[
+        Path,
+        typer.Argument(help="rock scan: mesh (OBJ/PLY/STL/OFF) or point cloud (PLY/XYZ/CSV/TXT/LAS/E57)"),
+    ],
+    pedestal: Annotated[
+        Path | None, typer.Option(help="pedestal scan (default: a flat pedestal under the rock)")
+    ] = None,
+    density: Annotated[float, typer.Option(help="kg/m³")] = 2700.0,
+    mass: Annotated[float | None, typer.Option(help="kg; overrides --density")] = None,
+    units: Annotated[str, typer.Option(help="length unit of the scan: m, cm, mm, ft, in")] = "m",
+    out: Annotated[Path | None, typer.Option(help="report folder (default reports/rock_<name>/)")] = None,
+    orientation: Annotated[str, typer.Option(help="scan | settle | stable")] = "settle",
+    cut_z: Annotated[
+        float | None, typer.Option(help="split one scan at z = cut (m): rock above, pedestal below")
+    ] = None,
+    alpha_multiple: Annotated[
+        float | None, typer.Option(help="point cloud: alpha as a multiple of the spacing")
+    ] = None,
+    grid_spacing: Annotated[float | None, typer.Option(help="node grid spacing, m")] = None,
+) -> None:
+    """Rock model of a scan: mass, COM, inertia, contact patch, critical tilt per direction; writes a small report."""
+    from pbr_xval.cli.rock_impl import rock_command
+
+    code = rock_command(
+        scan,
+        pedestal,
+        density,
+        units,
+        out,
+        mass=mass,
+        orientation=orientation,
+        cut_z=cut_z,
+        alpha_multiple=alpha_multiple,
+        grid_spacing=grid_spacing,
+        console=console,
+    )
+    if code:
+        raise typer.Exit(code)
