@@ -128,7 +128,33 @@ class MeshRock(_MassSpec):
     inertia: Annotated[list[Finite], Field(min_length=6, max_length=6)] | None = Field(
         None, description="explicit inertia about the COM [Ixx, Iyy, Izz, Ixy, Ixz, Iyz], kg·m²"
     )
-    orientation: Literal["as_scanned", "stable"] = "as_scanned"
+    pose: Literal["scan", "settle", "stable"] = Field(
+        "settle",
+        description="resting pose on a flat pedestal: 'scan' (the scan's orientation; refused when the "
+        "rock is not at rest in it), 'settle' (settled onto the hull face below the COM) or 'stable' "
+        "(lowest COM); the same vocabulary and default as `pbr-xval rock --pose`",
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _deprecated_orientation(cls, data: Any) -> Any:
+        """Read the old key ``orientation`` (``as_scanned`` | ``stable``) as ``pose``, with a warning."""
+        if isinstance(data, dict) and "orientation" in data:
+            import warnings
+
+            data = dict(data)
+            old = data.pop("orientation")
+            if "pose" in data:
+                raise ValueError("give 'pose' only ('orientation' is its deprecated old name)")
+            new = {"as_scanned": "scan"}.get(old, old)
+            data["pose"] = new
+            warnings.warn(
+                f"key 'rock.orientation' is deprecated: write pose = {new!r} "
+                f"(pose takes scan | settle | stable; 'as_scanned' is now 'scan')",
+                FutureWarning,
+                stacklevel=2,
+            )
+        return data
 
 
 Rock = Annotated[

@@ -317,11 +317,15 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
             }
         )
     elif isinstance(rock, sc.MeshRock):
+        from pbr_xval.geometry.interface import NotAtRestError
         from pbr_xval.geometry.mesh import load_rock_mesh
 
-        mesh, info = load_rock_mesh(
-            scn.resolve_path(rock.path), units=rock.units, orientation=rock.orientation
-        )
+        try:
+            mesh, info = load_rock_mesh(
+                scn.resolve_path(rock.path), units=rock.units, pose=rock.pose, hint='use pose = "settle"'
+            )
+        except NotAtRestError as exc:
+            raise sc.ScenarioError(f"scenario {scn.name!r}: key 'rock.pose': {exc}") from None
     else:  # pragma: no cover - the union is closed
         raise TypeError(type(rock))
 

@@ -23,7 +23,19 @@ def rock(
     mass: Annotated[float | None, typer.Option(help="kg; overrides --density")] = None,
     units: Annotated[str, typer.Option(help="length unit of the scan: m, cm, mm, ft, in")] = "m",
     out: Annotated[Path | None, typer.Option(help="report folder (default reports/rock_<name>/)")] = None,
-    orientation: Annotated[str, typer.Option(help="scan | settle | stable")] = "settle",
+    pose: Annotated[
+        str,
+        typer.Option(
+            "--pose",
+            "--orientation",
+            help="resting pose: scan (as scanned; refused when not at rest) | settle (onto the hull face "
+            "below the COM) | stable (lowest COM); the scenario key rock.pose takes the same values",
+        ),
+    ] = "settle",
+    scenario: Annotated[
+        Path | None,
+        typer.Option(help="also write a ready scenario TOML for this rock (check/run/threshold accept it)"),
+    ] = None,
     cut_z: Annotated[
         float | None, typer.Option(help="split one scan at z = cut (m): rock above, pedestal below")
     ] = None,
@@ -42,7 +54,8 @@ def rock(
         units,
         out,
         mass=mass,
-        orientation=orientation,
+        pose=pose,
+        scenario=scenario,
         cut_z=cut_z,
         alpha_multiple=alpha_multiple,
         grid_spacing=grid_spacing,

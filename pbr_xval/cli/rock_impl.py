@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["rock_command"]
+__all__ = ["rock_command", "write_rock_scenario"]
 
 
 def _atomic_write_text(path: Path, text: str) -> None:
@@ -68,7 +68,8 @@ def rock_command(
     out: Path | None,
     *,
     mass: float | None = None,
-    orientation: str = "settle",
+    pose: str = "settle",
+    scenario: Path | None = None,
     cut_z: float | None = None,
     alpha_multiple: float | None = None,
     grid_spacing: float | None = None,
@@ -80,7 +81,9 @@ def rock_command(
     """Build the rock model of ``scan``, print it with rich, write ``out`` (default
     ``reports/rock_<name>/``: rock.json, rock.png, polar.png). Returns 0, or 2 on a geometry error.
 
-    ``mass`` (kg), when given, overrides ``density``.
+    ``mass`` (kg), when given, overrides ``density``. ``pose`` is ``scan``, ``settle`` or
+    ``stable`` (:data:`pbr_xval.geometry.interface.POSES`). ``scenario``: also write a ready,
+    validated scenario TOML for the rock there (:func:`write_rock_scenario`).
     """
     from rich.console import Console
     from rich.table import Table
@@ -90,6 +93,12 @@ def rock_command(
     from pbr_xval.geometry.rockmodel import build_rock_model
 
     con = console or Console()
+    if scenario is not None and (pedestal is not None or cut_z is not None):
+        con.print(
+            "[red]error:[/red] --scenario writes a rock on a flat pedestal; a scanned pedestal "
+            "(--pedestal or --cut-z) cannot be carried into a scenario yet — drop --scenario or the pedestal"
+        )
+        return 2
     try:
         model = build_rock_model(
             Path(scan),
@@ -97,7 +106,7 @@ def rock_command(
             density=None if mass is not None else density,
             mass=mass,
             units=units,
-            orientation=orientation,
+            pose=pose,
             cut_z=cut_z,
             alpha_multiple=alpha_multiple,
             grid_spacing=grid_spacing,
@@ -131,20 +140,34 @@ def rock_command(
         f"{c['n_points']} points within {c['eps_m']:.4f} m; support polygon area {c['area_m2']:.5f} m²; "
         f"min rectangle {c['min_rectangle']['extents'][0]:.3f} × {c['min_rectangle']['extents'][1]:.3f} m",
     )
-    t.add_row(
-        "critical tilt α",
-        f"min {ct['min_deg']:.2f}° (at φ = {ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}°",
-    )
-    phis = np.asarray(ct["phi_deg"])
-    alphas = np.asarray(ct["alpha_deg"])
-    per30 = [
-        f"{p:.0f}°: {np.interp(p, np.append(phis, 360), np.append(alphas, alphas[0])):.1f}°"
-        for p in range(0, 360, 30)
-    ]
-    t.add_row("α per 30°", ", ".join(per30))
-    t.add_row(
-        "toppling g·tan α", f"{ct['toppling_accel_min_m_s2']:.3f} – {ct['toppling_accel_max_m_s2']:.3f} m/s²"
-    )
+    t.add_row("direction φ", "φ = 0 along +x, counter-clockwise seen from above (+x toward +y)")
+    if not ct["at_rest"] or ct["min_deg"] is None:
+        t.add_row(
+            "[yellow]critical tilt α[/yellow]",
+            f"undefined: the rock is not at rest in this pose (its COM's vertical passes "
+            f"{-ct['rest_margin_m'] * 1e3:.3g} mm outside its support); use --pose settle",
+        )
+    else:
+        t.add_row(
+            "critical tilt α",
+            f"min {ct['min_deg']:.2f}° (at φ = {ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}° "
+            "(turned about the horizontal axis ⟂ φ)",
+        )
+        phis = np.asarray(ct["phi_deg"])
+        alphas = np.asarray(ct["alpha_deg"], dtype=float)
+        ups = np.asarray(ct["uplift_angle_deg"], dtype=float)
+        per30 = [f"{p:.0f}°: {alphas[np.argmin(np.abs(phis - p))]:.1f}°" for p in range(0, 360, 30)]
+        t.add_row("α per 30°", ", ".join(per30))
+        t.add_row(
+            "tilt-table angle α_u",
+            f"min {np.nanmin(ups):.2f}°, max {np.nanmax(ups):.2f}° (atan of the COM's distance to the "
+            "support edge along φ over its height)",
+        )
+        t.add_row(
+            "uplift g·tan α_u",
+            f"{ct['toppling_accel_min_m_s2']:.3f} – {ct['toppling_accel_max_m_s2']:.3f} m/s² "
+            "(quasi-static uplift: a lower bound on the toppling PGA)",
+        )
     for w in d["info"].get("reconstruction", {}).get("warnings", []):
         t.add_row("[yellow]reconstruction[/yellow]", w)
     for r in d["info"]["scan"].get("repairs", []):
@@ -155,4 +178,99 @@ def rock_command(
     _picture(model, out_dir / "rock.png")
     plot_stability_polar(model.stability, out_dir / "polar.png", g=gravity, title=model.name)
     con.print(f"wrote {out_dir}/rock.json, rock.png, polar.png")
+    if scenario is not None:
+        try:
+            write_rock_scenario(
+                model, Path(scan), Path(scenario), units=units, pose=pose, density=density, mass=mass
+            )
+        except ValueError as exc:
+            con.print(f"[red]error:[/red] {exc}")
+            return 2
+        con.print(
+            f"wrote scenario {scenario} (check it with: pbr-xval check {scenario}; "
+            f"find its toppling amplitude with: pbr-xval threshold {scenario} --engine mujoco)"
+        )
     return 0
+
+
+def write_rock_scenario(
+    model: Any,
+    scan: Path,
+    path: Path,
+    *,
+    units: str = "m",
+    pose: str = "settle",
+    density: float = 2700.0,
+    mass: float | None = None,
+    frequency: float = 1.0,
+    duration: float = 4.0,
+) -> Any:
+    """Write a ready scenario for the rock ``model`` (a :class:`ScannedRock` of ``scan``) to ``path``.
+
+    The rock is the scan itself (a mesh file, referenced relative to the scenario) or, for a
+    point cloud, its reconstructed closed surface written beside the scenario as
+    ``<stem>.rock.obj``; the same ``units`` and ``pose`` as the model; mass properties from the
+    closed mesh at ``density`` (or scaled to ``mass``); a flat pedestal; and a one-sine pulse
+    of ``frequency`` Hz along φ = 0 (+x) whose amplitude is twice the quasi-static bound
+    min(g·tan α_u(0°), g·tan α_u(180°)), so that the default threshold scan (0.5×–2×) starts
+    at the bound. The scenario is validated and compiled before it is written (atomically).
+
+    Returns the :class:`~pbr_xval.scenario.Scenario`.
+    """
+    import math
+    import re
+
+    from pbr_xval.atomic import write_text_atomic as atomic_write_text
+    from pbr_xval.geometry.io import MESH_FORMATS, load_scan
+    from pbr_xval.scenario import scenario_from_dict
+    from pbr_xval.scene import compile_scene
+
+    path = Path(path)
+    scan = Path(scan)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    is_mesh = scan.suffix.lower() in MESH_FORMATS and load_scan(scan, units=units).kind == "mesh"
+    if is_mesh:
+        rock_file = Path(os.path.relpath(scan.resolve(), path.parent.resolve())).as_posix()
+        rock_units = units
+        source = f"the scan {scan.name}"
+    else:
+        obj = path.with_name(f"{path.stem}.rock.obj")
+        local = model.mesh.copy()
+        local.apply_transform(np.linalg.inv(model.transform))  # back to the (re-centred) scan orientation
+        atomic_write_text(obj, local.export(file_type="obj"))
+        rock_file, rock_units = obj.name, "m"
+        source = f"the closed surface reconstructed from the point cloud {scan.name} ({obj.name})"
+    bound = float(model.stability.shaking_bound(0.0, model.gravity))
+    if not math.isfinite(bound):
+        raise ValueError(f"{scan}: the rock is not at rest in pose {pose!r}; use --pose settle")
+    name = re.sub(r"[^A-Za-z0-9_.\-]", "_", scan.stem)
+    rock: dict[str, Any] = {"shape": "mesh", "path": rock_file, "units": rock_units, "pose": pose}
+    rock.update({"mass": float(mass)} if mass is not None else {"density": float(density)})
+    data = {
+        "name": name,
+        "description": (
+            f"{scan.name} on a flat pedestal, written by pbr-xval rock: mass properties from {source} "
+            + (f"scaled to {mass} kg" if mass is not None else f"at {density} kg/m³")
+            + f", pose {pose!r}; one-sine pulse along +x at twice the quasi-static bound {bound:.4g} m/s²"
+        ),
+        "duration": float(duration),
+        "gravity": float(model.gravity),
+        "rock": rock,
+        "pedestal": {"kind": "plane"},
+        "excitation": {
+            "type": "one_sine",
+            "amplitude": round(2.0 * bound, 6),
+            "frequency": float(frequency),
+            "azimuth_deg": 0.0,
+        },
+    }
+    scn = scenario_from_dict(data, source=path)
+    compile_scene(scn)  # everything check/run/threshold need (mesh, pose, stability) works
+    header = (
+        f"# Scenario for {scan.name}, written by `pbr-xval rock --scenario` (pose {pose!r}).\n"
+        "# Directions: azimuth_deg = 0 along +x of the scan, counter-clockwise seen from above.\n"
+        f"# Quasi-static toppling bound along ±x: {bound:.6g} m/s² (g·tan α_u, a lower bound on the PGA).\n"
+        "# Edit [excitation] for your ground motion (see docs/scenarios.md).\n"
+    )
+    atomic_write_text(path, header + scn.to_toml())
+    return scn

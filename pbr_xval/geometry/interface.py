@@ -5,9 +5,13 @@
 * :func:`contact_patch` — the seed's basal contact points: rock points (surface vertices and/or
   grid nodes) within ε of the pedestal surface, their support polygon (2-D convex hull in the
   pedestal plane, area) and minimum-area bounding rectangle (shapely).
-* :func:`scan_pose`, :func:`stable_pose` — resting pose on a flat pedestal: keep the scan's
-  orientation (lowest points as the base), or the stable orientation with the lowest centre of
-  mass over the convex hull's faces (the hull face nearest the COM, which is always stable).
+* :func:`rest_pose` — the resting pose on a flat pedestal, one vocabulary for ``pbr-xval rock``
+  and scenarios (:data:`POSES`, default :data:`DEFAULT_POSE`): ``scan`` keeps the scan's
+  orientation (lowest point on z = 0) and is refused with :class:`NotAtRestError` when the COM is
+  not over its support there; ``settle`` (:func:`settle_pose`) lets the rock settle from its scan
+  orientation onto the hull face below its COM (identical to ``scan`` when the scan pose is at
+  rest); ``stable`` (:func:`stable_pose`) is the orientation with the lowest centre of mass over
+  the convex hull's faces (the hull face nearest the COM, which is always stable).
 * :func:`stability_table`, :func:`plot_stability_polar` — α(φ) and g·tan α(φ) for every
   horizontal direction φ, and their polar plot.
 """
@@ -26,13 +30,18 @@ from pbr_xval.geometry.io import GeometryError
 from pbr_xval.geometry.stability import StabilityTable, hull_vertices
 
 __all__ = [
+    "DEFAULT_POSE",
+    "PHI_CONVENTION",
+    "POSES",
     "ContactPatch",
+    "NotAtRestError",
     "contact_patch",
     "distance_to_mesh",
     "fit_plane",
     "frame_from_plane",
     "pedestal_plane",
     "plot_stability_polar",
+    "rest_pose",
     "scan_pose",
     "settle_pose",
     "split_by_plane",
@@ -241,6 +250,62 @@ def contact_patch(
 
 
 # ------------------------------------------------------------------------------------- poses
+#: the resting poses, for ``pbr-xval rock --pose`` and the scenario key ``rock.pose``
+POSES = ("scan", "settle", "stable")
+DEFAULT_POSE = "settle"
+
+
+class NotAtRestError(GeometryError):
+    """The rock cannot rest in the requested pose (its COM is not over its support)."""
+
+
+def rest_pose(
+    vertices: np.ndarray, com: np.ndarray, pose: str = DEFAULT_POSE, *, hint: str = "use pose = settle"
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """4×4 transform putting the rock (vertices (n, 3) m, COM (3,) m) at rest in ``pose``.
+
+    Returns (transform, info) with info["pose"] = ``pose`` and the pose's details.
+
+    Raises
+    ------
+    NotAtRestError
+        ``scan`` when the COM's vertical misses the support of the scan orientation; the message
+        says by how much, how far settling would tilt the rock, and ends with ``hint``.
+    GeometryError
+        an unknown ``pose``.
+    """
+    from pbr_xval.geometry.stability import rest_margin, support_polygon
+
+    v = np.asarray(vertices, float)
+    c = np.asarray(com, float)
+    if pose == "scan":
+        t = scan_pose_vertices(v)
+        pts = v + t[:3, 3]
+        margin = rest_margin(support_polygon(pts), c[:2])
+        if margin <= 0:
+            tilt = settle_pose(v, c)[1]["tilt_deg"]
+            raise NotAtRestError(
+                "the rock is not at rest in its scan pose: its COM is outside its support "
+                f"(the COM's vertical passes {-margin * 1e3:.3g} mm outside the support polygon of the scan's "
+                f"lowest points; settling onto the hull face below the COM tilts it by {tilt:.3g}°); {hint}"
+            )
+        return t, {"pose": "scan", "rest_margin_m": margin}
+    if pose == "settle":
+        t, info = settle_pose(v, c)
+        return t, {"pose": "settle", **info}
+    if pose == "stable":
+        t, info = stable_pose(v, c)
+        return t, {"pose": "stable", **info}
+    raise GeometryError(f"pose {pose!r}: expected one of {', '.join(POSES)}")
+
+
+def scan_pose_vertices(vertices: np.ndarray) -> np.ndarray:
+    """4×4 transform keeping the orientation of ``vertices`` (n, 3), lowest point on z = 0."""
+    t = np.eye(4)
+    t[2, 3] = -float(np.asarray(vertices, float)[:, 2].min())
+    return t
+
+
 def scan_pose(mesh: trimesh.Trimesh) -> np.ndarray:
     """4×4 transform keeping the scan's orientation, lowest point on z = 0."""
     t = np.eye(4)
@@ -282,12 +347,18 @@ def settle_pose(
 
     The vertical through the COM leaves the convex hull through one face; that face is rotated
     onto z = 0 and the step repeated until the face stays the same (the COM is then above it).
+    A rock already at rest in its current orientation (the COM's vertical strictly inside the
+    support polygon of its lowest points) is left as it is (only lowered onto z = 0).
     Returns the 4×4 transform and {"face_normal", "iterations", "tilt_deg"}.
     """
+    from pbr_xval.geometry.stability import rest_margin, support_polygon
+
     v0 = np.asarray(vertices, float)
     hv = hull_vertices(v0)
-    total = np.eye(4)
     c = np.asarray(com, float)
+    if rest_margin(support_polygon(hv), c[:2]) > 0:
+        return scan_pose_vertices(v0), {"face_normal": [0.0, 0.0, -1.0], "iterations": 0, "tilt_deg": 0.0}
+    total = np.eye(4)
     prev = None
     it = 0
     for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
@@ -335,8 +406,16 @@ def _atomic_savefig(fig: Any, path: Path, **kw: Any) -> None:
             os.unlink(tmp)
 
 
+#: how φ is measured, stated on every polar plot
+PHI_CONVENTION = "φ = 0 along +x; φ grows counter-clockwise seen from above (+x toward +y)"
+
+
 def plot_stability_polar(table: StabilityTable, path: str | Path, g: float = 9.81, title: str = "") -> Path:
-    """Polar plot of α(φ) (deg) and g·tan α(φ) (m/s²) written atomically to ``path`` (PNG)."""
+    """Polar plot of α(φ), α_u(φ) (deg) and g·tan α_u(φ) (m/s²) written atomically to ``path`` (PNG).
+
+    Directions where the pose is not at rest (NaN) are left as gaps; the φ convention
+    (:data:`PHI_CONVENTION`) is written on the figure.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -344,17 +423,29 @@ def plot_stability_polar(table: StabilityTable, path: str | Path, g: float = 9.8
 
     phi = np.append(table.phi, table.phi[0] + 2 * np.pi)
     alpha = np.degrees(np.append(table.alpha, table.alpha[0]))
-    acc = g * np.tan(np.radians(alpha))
-    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(10, 5))
-    axes[0].plot(phi, alpha, "-o", ms=2)
-    axes[0].set_title("critical tilt α(φ) [deg]")
+    alpha_u = np.degrees(np.append(table.uplift_angle, table.uplift_angle[0]))
+    acc = np.append(table.toppling_accel(g), table.toppling_accel(g)[0])
+    fig, axes = plt.subplots(1, 2, subplot_kw={"projection": "polar"}, figsize=(10, 5.4))
+    axes[0].plot(
+        phi, alpha, "-o", ms=2, label="critical tilt α (turned about the horizontal axis normal to φ)"
+    )
+    axes[0].plot(phi, alpha_u, "-", lw=1.2, color="C2", label="tilt-table angle α_u = atan(ρ/h_G)")
+    axes[0].set_title("tilt angles toward φ [deg]")
+    axes[0].legend(loc="lower center", bbox_to_anchor=(0.5, -0.22), fontsize=7)
     axes[1].plot(phi, acc, "-o", ms=2, color="C3")
-    axes[1].set_title("quasi-static toppling g·tan α(φ) [m/s²]")
+    axes[1].set_title("quasi-static toppling g·tan α_u(φ) [m/s²]")
     for ax in axes:
+        ax.set_theta_zero_location("E")
+        ax.set_theta_direction(1)
         ax.set_rmin(0.0)
+    fig.text(0.5, 0.01, PHI_CONVENTION, ha="center", fontsize=8)
+    if not np.all(np.isfinite(table.alpha)):
+        fig.text(
+            0.5, 0.05, "gaps: no critical tilt (the pose is not at rest toward φ)", ha="center", fontsize=8
+        )
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     _atomic_savefig(fig, Path(path), dpi=110)
     plt.close(fig)
     return Path(path)

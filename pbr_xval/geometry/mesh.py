@@ -73,19 +73,29 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
 
 
 def load_rock_mesh(
-    path: str | Path, *, units: str = "m", orientation: str = "as_scanned"
+    path: str | Path, *, units: str = "m", pose: str = "settle", hint: str = "use pose = settle"
 ) -> tuple[trimesh.Trimesh, dict[str, Any]]:
-    """Load a closed rock mesh ready for mass properties (positive volume, consistent winding)."""
+    """Load a closed rock mesh ready for mass properties (positive volume, consistent winding),
+    put at rest in ``pose`` (``scan``, ``settle`` or ``stable``; see
+    :func:`pbr_xval.geometry.interface.rest_pose`), lowest point on z = 0.
+
+    Raises
+    ------
+    NotAtRestError
+        ``pose = "scan"`` and the rock is not at rest in its scan orientation (the message
+        names the file and ends with ``hint``).
+    """
+    from pbr_xval.geometry.interface import NotAtRestError, rest_pose
     from pbr_xval.geometry.io import close_and_orient
 
     mesh, info = load_mesh(path, units=units)
     # safe repairs without networkx (capping small planar holes, BFS winding fix, inversion)
     close_and_orient(mesh, path, info["repairs"])
-    if orientation == "stable":
-        from pbr_xval.geometry.interface import stable_pose
-
-        tf, pose = stable_pose(mesh.vertices, mesh.center_mass)
-        mesh.apply_transform(tf)
-        info["pose_transform"] = np.asarray(tf).tolist()
-        info["pose"] = pose
+    try:
+        tf, pinfo = rest_pose(mesh.vertices, mesh.center_mass, pose, hint=hint)
+    except NotAtRestError as exc:
+        raise NotAtRestError(f"{path}: {exc}") from None
+    mesh.apply_transform(tf)
+    info["pose_transform"] = np.asarray(tf).tolist()
+    info["pose"] = pinfo
     return mesh, info

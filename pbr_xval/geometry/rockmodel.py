@@ -17,17 +17,16 @@ import trimesh
 
 from pbr_xval.geometry.cloud import alpha_solid
 from pbr_xval.geometry.interface import (
+    DEFAULT_POSE,
     ContactPatch,
     contact_patch,
     frame_from_plane,
     pedestal_plane,
-    scan_pose,
-    settle_pose,
+    rest_pose,
     split_by_plane,
     stability_table,
-    stable_pose,
 )
-from pbr_xval.geometry.io import GeometryError, load_scan
+from pbr_xval.geometry.io import load_scan
 from pbr_xval.geometry.mass import MassProperties, exact_mass_properties, node_mass_properties
 from pbr_xval.geometry.stability import StabilityTable
 
@@ -62,6 +61,12 @@ class ScannedRock:
     def to_dict(self) -> dict[str, Any]:
         acc = self.stability.toppling_accel(self.gravity)
         a = self.stability.alpha
+        au = self.stability.uplift_angle
+        ok = np.isfinite(a)
+
+        def nanstat(f: Any, x: np.ndarray) -> float | None:
+            return float(f(x[np.isfinite(x)])) if np.isfinite(x).any() else None
+
         return {
             "name": self.name,
             "mass_kg": self.exact.mass,
@@ -85,14 +90,20 @@ class ScannedRock:
             "offset_m": self.offset.tolist(),
             "contact": self.contact.to_dict(),
             "critical_tilt": {
+                "phi_convention": "φ = 0 along +x, counter-clockwise seen from above (+x toward +y)",
+                "at_rest": bool(self.stability.at_rest),
+                "rest_margin_m": float(self.stability.margin),
                 "phi_deg": np.degrees(self.stability.phi).tolist(),
-                "alpha_deg": np.degrees(a).tolist(),
-                "min_deg": float(np.degrees(a.min())),
-                "min_at_phi_deg": float(np.degrees(self.stability.phi[np.argmin(a)])),
-                "max_deg": float(np.degrees(a.max())),
-                "toppling_accel_m_s2": acc.tolist(),
-                "toppling_accel_min_m_s2": float(acc.min()),
-                "toppling_accel_max_m_s2": float(acc.max()),
+                "alpha_deg": [float(x) if np.isfinite(x) else None for x in np.degrees(a)],
+                "min_deg": nanstat(np.min, np.degrees(a)),
+                "min_at_phi_deg": float(np.degrees(self.stability.phi[np.nanargmin(a)]))
+                if ok.any()
+                else None,
+                "max_deg": nanstat(np.max, np.degrees(a)),
+                "uplift_angle_deg": [float(x) if np.isfinite(x) else None for x in np.degrees(au)],
+                "toppling_accel_m_s2": [float(x) if np.isfinite(x) else None for x in acc],
+                "toppling_accel_min_m_s2": nanstat(np.min, acc),
+                "toppling_accel_max_m_s2": nanstat(np.max, acc),
                 "gravity_m_s2": self.gravity,
             },
             "info": self.info,
@@ -110,7 +121,7 @@ def build_rock_model(
     density: float | None = 2700.0,
     mass: float | None = None,
     units: str = "m",
-    orientation: str = "settle",
+    pose: str = DEFAULT_POSE,
     cut_z: float | None = None,
     alpha_multiple: float | None = None,
     grid_spacing: float | None = None,
@@ -124,9 +135,10 @@ def build_rock_model(
     ----------
     pedestal : a separate pedestal scan (mesh or cloud) in the same coordinates as ``scan``;
         its top is fitted by a plane near the rock and becomes z = 0.
-    orientation : without a pedestal, ``"scan"`` (keep the orientation, lowest point on
-        z = 0), ``"settle"`` (rest on the hull face below the COM) or ``"stable"`` (lowest COM
-        over the hull's faces).
+    pose : without a pedestal, ``"scan"`` (keep the orientation, lowest point on z = 0; refused
+        with :class:`~pbr_xval.geometry.interface.NotAtRestError` when the rock is not at rest
+        there), ``"settle"`` (settle onto the hull face below the COM; the default) or
+        ``"stable"`` (lowest COM over the hull's faces) — :func:`~pbr_xval.geometry.interface.rest_pose`.
     cut_z : split one scan at z = cut_z (scan coordinates, in ``units``): above is the rock,
         below the pedestal.
     alpha_multiple : alpha-shape parameter for point clouds (× median point spacing).
@@ -161,19 +173,14 @@ def build_rock_model(
         pose = "pedestal plane"
     else:
         com0 = exact_mass_properties(mesh, density=1.0).com
-        if orientation == "scan":
-            t = scan_pose(mesh)
-            pose = "scan pose, lowest point on z = 0"
-        elif orientation == "settle":
-            t, pi = settle_pose(mesh.vertices, com0)
-            info["pose"] = pi
-            pose = "settled onto the hull face below the COM"
-        elif orientation == "stable":
-            t, pi = stable_pose(mesh.vertices, com0)
-            info["pose"] = pi
-            pose = "stable: lowest COM over the hull faces"
-        else:
-            raise GeometryError(f"orientation {orientation!r}: expected 'scan', 'settle' or 'stable'")
+        t, pi = rest_pose(mesh.vertices, com0, pose, hint="use --pose settle")
+        info["pose"] = pi
+        pose = {
+            "scan": "scan: the scan's orientation, lowest point on z = 0",
+            "settle": "settle: settled onto the hull face below the COM"
+            + (" (already at rest in the scan orientation)" if pi.get("iterations") == 0 else ""),
+            "stable": "stable: lowest COM over the hull faces",
+        }[pose]
     info["pose_kind"] = pose
     mesh.apply_transform(t)
     ex = exact_mass_properties(mesh, density=density, mass=mass)

@@ -9,6 +9,22 @@ Two quantities field workers estimate with tilt tests:
 * the **uplift acceleration** g·b(φ)/h_G: the quasi-static horizontal acceleration at which the
   rock starts to rock about the edge of its support polygon, b(φ) being the distance from the
   COM's vertical to that edge along φ and h_G the COM height.
+
+Two levers b(φ) appear, and they differ away from the normals of the support polygon's edges:
+
+* the **support lever** b_s(φ) = max over the support of (p − c)·d — the contact that is lowest
+  when the rock is turned about the horizontal axis ⟂ φ; it sets the critical tilt α(φ) of that
+  rotation (the toppling criterion's α);
+* the **ray lever** ρ(φ) — the distance from the COM's vertical to the edge of the support
+  polygon along φ. Under a constant horizontal pedestal acceleration a toward −φ the effective
+  gravity line through the COM meets the base at c + h_G·(a/g)·d; the contact forces can hold
+  the rock on its base only while that point is inside the polygon, so the rock uplifts at
+  a = g·ρ(φ)/h_G = g·tan α_u(φ). α_u is the tilt-table angle of a flat-based rock, and since no
+  rock topples without uplifting, g·tan α_u(φ) (with φ and φ + π for shaking along ±φ) is a hard
+  lower bound on the peak ground acceleration of any horizontal motion that topples it.
+
+A pose is **at rest** when the COM's vertical passes strictly inside the support polygon
+(:func:`rest_margin` > 0). Outside it neither angle exists: α and α_u are NaN (never 0).
 """
 
 from __future__ import annotations
@@ -17,7 +33,16 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import ConvexHull
 
-__all__ = ["StabilityTable", "critical_tilt", "hull_vertices", "support_points", "uplift_lever"]
+__all__ = [
+    "StabilityTable",
+    "critical_tilt",
+    "hull_vertices",
+    "ray_lever",
+    "rest_margin",
+    "support_points",
+    "support_polygon",
+    "uplift_lever",
+]
 
 
 def _rot_about(axis: np.ndarray, angle: float) -> np.ndarray:
@@ -43,6 +68,73 @@ def support_points(vertices: np.ndarray, tol: float | None = None) -> np.ndarray
     return v[v[:, 2] <= zmin + tol]
 
 
+def support_polygon(vertices: np.ndarray, tol: float | None = None) -> np.ndarray:
+    """Support polygon (q, 2): counter-clockwise x–y vertices of the 2-D hull of :func:`support_points`.
+
+    Fewer than three vertices (q = 1: a point, q = 2: a segment) when the rock touches the
+    plane at a vertex or along an edge only.
+    """
+    sp = support_points(hull_vertices(vertices), tol)[:, :2]
+    uniq = np.unique(np.round(sp, 12), axis=0)
+    if len(uniq) < 3:
+        return uniq
+    try:
+        h = ConvexHull(uniq)
+    except Exception:  # collinear points: the two ends of the segment
+        d = uniq - uniq.mean(axis=0)
+        ax = np.linalg.svd(d, full_matrices=False)[2][0]
+        t = d @ ax
+        return uniq[[int(np.argmin(t)), int(np.argmax(t))]]
+    return uniq[h.vertices]  # scipy returns 2-D hulls counter-clockwise
+
+
+def rest_margin(polygon: np.ndarray, point: np.ndarray) -> float:
+    """Signed distance (m) of the x–y ``point`` inside the support ``polygon`` (q, 2), ccw.
+
+    > 0: inside (the rock rests; the value is the smallest distance to an edge);
+    ≤ 0: on or outside the polygon, or the polygon is a point or a segment (the rock is not at
+    rest; the value is minus the distance to the polygon).
+    """
+    poly = np.asarray(polygon, float)
+    p = np.asarray(point, float)[:2]
+    if len(poly) == 1:
+        return -float(np.linalg.norm(p - poly[0]))
+    if len(poly) == 2:
+        a, b = poly
+        t = np.clip((p - a) @ (b - a) / max((b - a) @ (b - a), 1e-300), 0.0, 1.0)
+        return -float(np.linalg.norm(p - (a + t * (b - a))))
+    e = np.roll(poly, -1, axis=0) - poly
+    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]  # outward (ccw)
+    s = np.einsum("ij,ij->i", n, poly - p)  # distance of p inside each edge's line
+    if np.all(s > 0):
+        return float(s.min())
+    # outside: distance to the nearest edge segment
+    best = np.inf
+    for a, ei in zip(poly, e, strict=True):
+        t = np.clip((p - a) @ ei / (ei @ ei), 0.0, 1.0)
+        best = min(best, float(np.linalg.norm(p - (a + t * ei))))
+    return -best
+
+
+def ray_lever(polygon: np.ndarray, point: np.ndarray, direction: np.ndarray) -> float:
+    """Distance (m) from the x–y ``point`` to the edge of the ccw ``polygon`` along ``direction``.
+
+    NaN when the point is not strictly inside the polygon (the rock is not at rest).
+    """
+    poly = np.asarray(polygon, float)
+    p = np.asarray(point, float)[:2]
+    d = np.asarray(direction, float)[:2]
+    d = d / np.linalg.norm(d)
+    if rest_margin(poly, p) <= 0:
+        return float("nan")
+    e = np.roll(poly, -1, axis=0) - poly
+    n = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+    s = np.einsum("ij,ij->i", n, poly - p)
+    nd = n @ d
+    ahead = nd > 1e-15
+    return float(np.min(s[ahead] / nd[ahead]))
+
+
 def uplift_lever(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
     """(b, h): lever of the support edge toward ``direction`` and COM height, m.
 
@@ -63,7 +155,12 @@ def critical_tilt(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) 
     The rock (convex hull of ``vertices``, (n, 3) m, resting on z = min z) is rotated about the
     horizontal axis ⟂ to ``direction`` so that its top moves toward ``direction``; the contact is
     the lowest hull point (ties broken toward ``direction``). Returns the smallest angle at which
-    the COM passes over the contact, found by bracketing and Brent's method (1e-12 rad).
+    the COM passes over the contact, found by bracketing (steps of 0.125°) and Brent's method
+    (1e-12 rad). The search runs up to π: a rock lying on a broad face rolls onto neighbouring
+    hull faces as it turns and can pass over its contact only beyond 90°.
+
+    NaN when the COM is not inside its support toward ``direction`` at θ = 0 (the pose is not at
+    rest: no critical tilt exists) and when no crossing is found below π.
     """
     d = np.asarray(direction, dtype=float)
     d = np.array([d[0], d[1], 0.0]) / np.hypot(d[0], d[1])
@@ -78,34 +175,58 @@ def critical_tilt(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) 
         return float(np.max(low @ d))  # contact ahead of the COM (> 0) = stable
 
     if margin(0.0) <= 0:
-        return 0.0
-    grid = np.linspace(0.0, np.pi / 2, 721)
+        return float("nan")
+    grid = np.linspace(0.0, np.pi, 1441)
     prev = grid[0]
     for th in grid[1:]:
         if margin(th) <= 0:
             return float(brentq(margin, prev, th, xtol=1e-13))
         prev = th
-    return float(np.pi / 2)
+    return float("nan")
 
 
 class StabilityTable:
-    """Critical tilt α(φ) and uplift acceleration on a grid of horizontal directions.
+    """Critical tilt α(φ), tilt-table angle α_u(φ) and uplift levers on a grid of directions.
 
     Parameters
     ----------
     vertices : (n, 3) float, m — rock vertices in the scene frame, at rest.
     com : (3,) float, m.
-    n_directions : directions φ = 2πk/n (rad from +x toward +y).
+    n_directions : directions φ = 2πk/n (rad from +x toward +y, i.e. counter-clockwise seen
+        from above; φ = 0 along +x).
+
+    Attributes
+    ----------
+    phi : (n_directions,) rad.
+    alpha : (n_directions,) rad — critical tilt of the rotation about the axis ⟂ φ
+        (:func:`critical_tilt`; NaN when the pose is not at rest).
+    uplift_angle : (n_directions,) rad — α_u(φ) = atan(ρ(φ)/h_G), ρ the ray lever
+        (:func:`ray_lever`; NaN when the pose is not at rest).
+    lever : (n_directions,) m — support levers b_s(φ) (:func:`uplift_lever`).
+    ray : (n_directions,) m — ray levers ρ(φ).
+    polygon : (q, 2) m — the support polygon; margin : m — :func:`rest_margin` of the COM.
+    com_height : m.
     """
 
     def __init__(self, vertices: np.ndarray, com: np.ndarray, n_directions: int = 72) -> None:
         self.phi = np.linspace(0.0, 2 * np.pi, n_directions, endpoint=False)
         hv = hull_vertices(vertices)
+        com = np.asarray(com, dtype=float)
         dirs = np.column_stack([np.cos(self.phi), np.sin(self.phi), np.zeros_like(self.phi)])
         self.alpha = np.array([critical_tilt(hv, com, d) for d in dirs])
         levers = np.array([uplift_lever(hv, com, d) for d in dirs])
         self.lever = levers[:, 0]
         self.com_height = float(levers[0, 1])
+        self.polygon = support_polygon(hv)
+        self._com_xy = com[:2].copy()
+        self.margin = rest_margin(self.polygon, com[:2])
+        self.ray = np.array([ray_lever(self.polygon, com[:2], d) for d in dirs])
+        self.uplift_angle = np.arctan2(self.ray, self.com_height)
+
+    @property
+    def at_rest(self) -> bool:
+        """True when the COM's vertical passes strictly inside the support polygon."""
+        return self.margin > 0
 
     def alpha_at(self, phi: np.ndarray | float) -> np.ndarray:
         """Critical tilt (rad) at directions ``phi`` (rad), periodic linear interpolation."""
@@ -115,8 +236,28 @@ class StabilityTable:
         return np.interp(p, xp, fp)
 
     def toppling_accel(self, g: float = 9.81) -> np.ndarray:
-        """Quasi-static toppling acceleration g·tan α(φ) (m/s²) on the grid ``phi``."""
-        return g * np.tan(self.alpha)
+        """Quasi-static toppling acceleration g·tan α_u(φ) = g·ρ(φ)/h_G (m/s²) on the grid ``phi``.
+
+        The constant horizontal pedestal acceleration (toward φ + π) that tips the rock toward
+        φ off its base (module docstring); finite wherever the pose is at rest, NaN elsewhere.
+        """
+        return g * self.ray / self.com_height
+
+    def shaking_bound(self, phi: np.ndarray | float, g: float = 9.81) -> np.ndarray:
+        """Lower bound (m/s²) on the PGA of any horizontal motion along ±φ that topples the rock.
+
+        min(g·tan α_u(φ), g·tan α_u(φ + π)), evaluated exactly (not interpolated) at ``phi`` (rad).
+        """
+        ph = np.atleast_1d(np.asarray(phi, dtype=float))
+        out = []
+        for p in ph:
+            levers = [
+                ray_lever(self.polygon, self._com_xy, np.array([np.cos(q), np.sin(q)]))
+                for q in (p, p + np.pi)
+            ]
+            out.append(g * min(levers) / self.com_height)
+        res = np.asarray(out)
+        return res if np.ndim(phi) else res[0]
 
     def uplift_accel(self, phi: float, g: float) -> float:
         """Quasi-static acceleration (m/s²) that tips the rock toward direction ``phi``."""

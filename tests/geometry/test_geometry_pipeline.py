@@ -129,7 +129,51 @@ def test_box_critical_tilt_in_every_direction():
     np.testing.assert_allclose(table.alpha, expected, atol=1e-9)
     assert table.alpha[0] == pytest.approx(math.atan(bx / hz), abs=1e-9)
     assert table.alpha[18] == pytest.approx(math.atan(by / hz), abs=1e-9)
-    np.testing.assert_allclose(table.toppling_accel(9.81), 9.81 * np.tan(expected), rtol=1e-8)
+    # quasi-static uplift: the effective-gravity line through the COM leaves the base rectangle
+    # along φ at ρ = min(bx/|cos φ|, by/|sin φ|) (not at the corner furthest along φ)
+    with np.errstate(divide="ignore"):
+        rho = np.minimum(bx / np.abs(np.cos(table.phi)), by / np.abs(np.sin(table.phi)))
+    np.testing.assert_allclose(table.toppling_accel(9.81), 9.81 * rho / hz, rtol=1e-12)
+    np.testing.assert_allclose(table.uplift_angle, np.arctan(rho / hz), atol=1e-12)
+    assert table.at_rest and table.margin == pytest.approx(bx, abs=1e-12)
+    # shaking along ±φ: the smaller of the two senses (the box is symmetric: the same)
+    assert table.shaking_bound(0.3) == pytest.approx(9.81 * min(bx / math.cos(0.3), by / math.sin(0.3)) / hz)
+    assert np.all(np.isfinite(table.alpha)) and np.all(table.alpha < np.pi / 2)
+
+
+def test_a_slab_lying_flat_has_a_finite_critical_tilt_and_no_absurd_bound():
+    """A flat slab 1.0 × 0.8 × 0.1 m: tan α = b/h with h = 0.05 m, so α = atan(10) = 84.3° along x —
+    close to but below 90° (the old search stopped at 90° and printed g·tan 90° ≈ 1e17)."""
+    mesh = box_mesh(np.array([0.5, 0.4, 0.05]))
+    table = stability_table(mesh.vertices, mesh.center_mass, n_directions=8)
+    assert table.alpha[0] == pytest.approx(math.atan(0.5 / 0.05), abs=1e-9)
+    assert table.alpha[2] == pytest.approx(math.atan(0.4 / 0.05), abs=1e-9)
+    assert np.all(table.toppling_accel(9.81) <= 9.81 * 0.5 / 0.05 * math.sqrt(2) + 1e-9)
+
+
+def test_scan_pose_not_at_rest_is_refused_and_settle_is_the_identity_at_rest(tmp_path):
+    """A box tilted by 5° rests on one edge: no critical tilt exists in its scan pose (NaN, not 0);
+    ``scan`` is refused with the documented message, ``settle`` turns it back by 5°; an upright box
+    is left exactly as it is by ``settle``."""
+    from pbr_xval.geometry.interface import NotAtRestError, rest_pose
+    from pbr_xval.geometry.stability import StabilityTable
+
+    box = box_mesh(np.array([0.2, 0.3, 0.6]))
+    tilted = box.copy()
+    tilted.apply_transform(trimesh.transformations.rotation_matrix(math.radians(5.0), [0, 1, 0]))
+    tilted.apply_translation([0, 0, -tilted.vertices[:, 2].min()])
+    t = StabilityTable(tilted.vertices, tilted.center_mass, n_directions=8)
+    assert not t.at_rest and np.isnan(t.alpha).any() and np.isnan(t.toppling_accel()).all()
+    with pytest.raises(NotAtRestError, match="not at rest in its scan pose: its COM is outside its support"):
+        rest_pose(tilted.vertices, tilted.center_mass, "scan")
+    tf, info = rest_pose(tilted.vertices, tilted.center_mass, "settle")
+    assert info["tilt_deg"] == pytest.approx(5.0, abs=1e-9)
+    settled = trimesh.transform_points(tilted.vertices, tf)
+    t2 = StabilityTable(settled, trimesh.transform_points(tilted.center_mass[None], tf)[0], n_directions=8)
+    assert t2.alpha[0] == pytest.approx(math.atan(0.2 / 0.6), abs=1e-9)
+    tf0, info0 = rest_pose(box.vertices, box.center_mass, "settle")
+    assert info0["iterations"] == 0
+    np.testing.assert_array_equal(tf0[:3, :3], np.eye(3))
 
 
 def test_stable_pose_and_contact_patch_of_a_tilted_box(tmp_path):
@@ -267,3 +311,49 @@ def test_rock_command_on_a_synthetic_scan(tmp_path):
     bad = tmp_path / "bad.xyz"
     bad.write_text("0 0 0\n")
     assert rock_command(bad, None, 2700.0, "m", out, console=con) == 2
+
+
+# ---------------------------------------------------------------------------- scenario pose
+def _mesh_scenario(tmp_path, mesh, **rock):
+    from pbr_xval.scenario import load_scenario
+
+    mesh.export(tmp_path / "rock.obj")
+    extra = "".join(f"{k} = {v!r}\n".replace("'", '"') for k, v in rock.items())
+    (tmp_path / "s.toml").write_text(
+        'name = "m"\nduration = 1.0\n[rock]\nshape = "mesh"\npath = "rock.obj"\ndensity = 2500.0\n'
+        + extra
+        + '[excitation]\ntype = "one_sine"\namplitude = 3.0\nfrequency = 1.0\n'
+    )
+    return load_scenario(tmp_path / "s.toml")
+
+
+def test_scenario_pose_vocabulary_default_and_not_at_rest_message(tmp_path):
+    from pbr_xval.scenario import ScenarioError
+    from pbr_xval.scene import compile_scene
+
+    tilted = box_mesh(np.array([0.2, 0.3, 0.6]))
+    tilted.apply_transform(trimesh.transformations.rotation_matrix(math.radians(3.0), [0, 1, 0]))
+    scn = _mesh_scenario(tmp_path, tilted)
+    assert scn.rock.pose == "settle"  # the same default as `pbr-xval rock`
+    scene = compile_scene(scn)  # settled: α toward +x is the box's atan(b/h)
+    assert scene.alpha[1] == pytest.approx(math.atan(0.2 / 0.6), abs=1e-6)
+    scan = scn.with_value("rock.pose", "scan")
+    with pytest.raises(ScenarioError) as ei:
+        compile_scene(scan)
+    msg = str(ei.value)
+    assert "key 'rock.pose'" in msg and "rock.obj" in msg
+    assert "the rock is not at rest in its scan pose: its COM is outside its support" in msg
+    assert 'use pose = "settle"' in msg and "uplift_accel" not in msg
+    with pytest.raises(ScenarioError, match=r"rock\.pose"):
+        scn.with_value("rock.pose", "as_scanned")
+
+
+def test_deprecated_orientation_key_reads_as_pose(tmp_path):
+    mesh, _ = synthetic_rock(seed=3, subdivisions=2)
+    with pytest.warns(FutureWarning, match="'rock.orientation' is deprecated: write pose = 'scan'"):
+        scn = _mesh_scenario(tmp_path, mesh, orientation="as_scanned")
+    assert scn.rock.pose == "scan"
+    assert 'pose = "scan"' in scn.to_toml() and "orientation" not in scn.to_toml()
+    from pbr_xval.scene import compile_scene
+
+    compile_scene(scn)  # a synthetic rock rests in its own pose

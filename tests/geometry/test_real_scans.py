@@ -65,3 +65,19 @@ def test_double_rock_volume(models):
     assert m.exact.volume == pytest.approx(0.553, rel=2e-3)
     assert m.nodes.volume == pytest.approx(m.exact.volume, rel=0.01)
     np.testing.assert_allclose(m.nodes.principal_moments, m.exact.principal_moments, rtol=0.02)
+
+
+def test_sp1_poses_scan_refused_stable_finite():
+    """SP1 as scanned stands on one low vertex (measured: its COM's vertical passes 27 mm outside;
+    settling tilts it by 0.36°): the scan pose is refused with the documented message. Lying in
+    its stable pose it has critical tilts beyond 60° (the old search stopped at 90° and printed
+    g·tan 90° ≈ 1.6e17 m/s²): every α is finite and below 180°, every bound below 3 g."""
+    from pbr_xval.geometry.interface import NotAtRestError
+    from pbr_xval.geometry.rockmodel import build_rock_model
+
+    with pytest.raises(NotAtRestError, match="not at rest in its scan pose: its COM is outside its support"):
+        build_rock_model(SCANS / "SP1_mesh.obj", pose="scan", n_directions=8)
+    m = build_rock_model(SCANS / "SP1_mesh.obj", pose="stable", n_directions=24)
+    assert np.all(np.isfinite(m.stability.alpha)) and np.all(m.stability.alpha < np.pi)
+    acc = m.stability.toppling_accel(9.81)
+    assert np.all(np.isfinite(acc)) and np.all((acc > 0) & (acc < 3 * 9.81))
