@@ -14,14 +14,33 @@ regress : 0 every row within tolerance (skipped engines allowed unless ``strict`
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import os
+import re
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
-__all__ = ["demo_command", "examples_dir", "regress_command", "report_command"]
+__all__ = [
+    "demo_command",
+    "examples_dir",
+    "log_progress",
+    "quiet_native_stdout",
+    "regress_command",
+    "report_command",
+    "verdict_table",
+]
+
+#: seconds between two plain progress lines when the output is not a terminal
+LOG_INTERVAL_S = 10.0
+
+#: native start-up lines of engine libraries written straight to fd 1 (they break a progress bar)
+BANNERS = (re.compile(r"^pybullet build time: "),)
 
 
 def _console(console: Any) -> Any:
@@ -37,6 +56,119 @@ def _cmdline() -> str:
     if argv:
         argv[0] = Path(argv[0]).name
     return " ".join(argv)
+
+
+def log_progress(
+    console: Any, interval: float = LOG_INTERVAL_S, clock: Callable[[], float] = time.monotonic
+) -> Callable[[str, float], None]:
+    """A ``(message, fraction)`` progress callback printing plain lines (CI logs, batch jobs).
+
+    A line is printed when a new section starts and otherwise at most every ``interval`` seconds:
+    ``[  42 s]  37 % ETA 71 s  Housner block ...: thresholds: mujoco #7 ...``.
+    """
+    t0 = clock()
+    state: dict[str, Any] = {"last": -float("inf"), "section": None}
+
+    def cb(msg: str, frac: float) -> None:
+        now = clock()
+        section = msg.split(":", 1)[0]
+        if section == state["section"] and now - state["last"] < interval and frac < 1.0:
+            return
+        state.update(last=now, section=section)
+        el = now - t0
+        eta = f"ETA {el / frac * (1 - frac):.0f} s" if 0.02 < frac < 1.0 else ""
+        console.print(
+            f"[{el:5.0f} s] {100 * frac:3.0f} % {eta:>10}  {msg}",
+            markup=False,
+            highlight=False,
+            soft_wrap=True,
+        )
+
+    return cb
+
+
+@contextlib.contextmanager
+def quiet_native_stdout(console: Any) -> Iterator[None]:
+    """Keep native writes to fd 1 (engine banners, also from worker processes) off the console.
+
+    While active, fd 1 is a pipe: lines matching :data:`BANNERS` are dropped, any other line is
+    re-printed through ``console`` (above a progress bar); the console itself writes to a copy of
+    the original fd 1. Does nothing when the console does not write to the process's fd 1.
+    """
+    try:
+        stdout_fd = sys.stdout.fileno()
+        cfile = console.file
+        direct = stdout_fd == 1 and cfile in (sys.stdout, sys.__stdout__)
+    except (AttributeError, OSError, ValueError):
+        direct = False
+    if not direct:
+        yield
+        return
+    sys.stdout.flush()
+    saved = os.dup(1)
+    r, w = os.pipe()
+    os.dup2(w, 1)
+    os.close(w)
+    own = os.fdopen(os.dup(saved), "w", buffering=1, encoding=getattr(cfile, "encoding", None) or "utf-8")
+    console.file = own
+
+    def pump() -> None:
+        with os.fdopen(r, "rb") as f:
+            for raw in f:
+                line = raw.decode("utf-8", "replace").rstrip("\n")
+                if any(b.search(line) for b in BANNERS):
+                    continue
+                with contextlib.suppress(Exception):
+                    console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+    th = threading.Thread(target=pump, name="pbr-xval-stdout", daemon=True)
+    th.start()
+    try:
+        yield
+    finally:
+        with contextlib.suppress(Exception):
+            sys.stdout.flush()
+        os.dup2(saved, 1)  # closes the pipe's write end held as fd 1
+        os.close(saved)
+        th.join(timeout=2.0)
+        console.file = cfile
+        own.close()
+
+
+def verdict_table(verdict: Any, title: str) -> Any:
+    """The verdict as a rich table: one row per case × engine, with the numbers."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    colours = {"pass": "green", "attention": "yellow", "failed": "red", "reference": "cyan"}
+    t = Table(title=title, title_justify="left")
+    for col, just in (
+        ("case", "left"),
+        ("engine", "left"),
+        ("value", "right"),
+        ("deviation", "right"),
+        ("tolerance", "right"),
+        ("verdict", "left"),
+        ("sims", "right"),
+        ("wall s", "right"),
+    ):
+        t.add_column(col, justify=just, overflow="fold")  # type: ignore[arg-type]
+    last = None
+    for r in verdict.rows():
+        c = colours.get(r["status"], "dim")
+        t.add_row(
+            escape(r["case"]) if r["case"] != last else "",
+            escape(r["engine"]),
+            escape(r["value_text"]),
+            escape(r["deviation_text"]),
+            "" if r["tolerance"] is None else f"±{100 * r['tolerance']:.2f} %",
+            f"[{c}]{r['status']}[/]",
+            "" if r["n_sims"] is None else str(r["n_sims"]),
+            "" if r["wall_s"] is None else f"{r['wall_s']:.1f}",
+            end_section=False,
+        )
+        last = r["case"]
+    return t
 
 
 def report_command(
@@ -65,10 +197,14 @@ def report_command(
     except StudyFileError as exc:
         con.print(f"[red]error:[/] {escape(str(exc))}")
         return 2
+    from pbr_xval.report.describe import describe_scenario
+    from pbr_xval.report.verdict import build_verdict
+
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"pbr_xval_{spec.name}_") as work:
         show = progress if progress is not None else con.is_terminal
-        results = run_study(spec, True if show else False, work_dir=Path(work), console=con)
+        with quiet_native_stdout(con):
+            results = run_study(spec, True if show else log_progress(con), work_dir=Path(work), console=con)
         wall = time.perf_counter() - t0
         prov = {
             "title": spec.title,
@@ -86,6 +222,7 @@ def report_command(
                     "label": s.label,
                     "hash": s.scenario.content_hash() if s.scenario else "",
                     "file": str(s.path) if s.path else f"{s.label}.toml (generated)",
+                    "summary": describe_scenario(s.scenario) if s.scenario else "",
                 }
                 for s in spec.scenarios
             ],
@@ -102,16 +239,21 @@ def report_command(
             assets=spec.assets,
             notes=notes,
         )
-    table = Table(title=f"{spec.title} — {wall:.0f} s")
-    for col in ("section", "status", "wall s", "summary"):
-        table.add_column(col)
+    table = Table(title=f"{spec.title} — {wall:.0f} s", title_justify="left")
+    for col in ("section", "status", "wall s"):
+        table.add_column(col, overflow="fold")
     for r in results:
         bad = is_failed(r)
         status = f"[red]{r.provenance.get('status')}[/]" if bad else "[green]ok[/]"
-        table.add_row(
-            escape(r.title), status, f"{r.wall_time:.1f}", escape(r.summary[0] if r.summary else "")
-        )
+        table.add_row(escape(r.title), status, f"{r.wall_time:.1f}")
     con.print(table)
+    verdict = build_verdict(results)
+    if verdict.cases:
+        con.print(verdict_table(verdict, "Verdict"))
+    for h in verdict.headlines:
+        con.print(f"  {_plain(h)}", markup=False, highlight=False)
+    for f in verdict.findings:
+        con.print(f"  [yellow]![/] {escape(_plain(f))}")
     for n in spec.notes:
         con.print(f"[dim]note: {escape(n)}[/]")
     con.print(
@@ -120,6 +262,11 @@ def report_command(
     if spec.interrupted:
         return 130
     return 1 if any(is_failed(r) for r in results) else 0
+
+
+def _plain(md: str) -> str:
+    """Markdown emphasis removed (``**x**``, ``*x*``, backticks) for the terminal."""
+    return re.sub(r"\*\*(.+?)\*\*|\*(.+?)\*|`(.+?)`", lambda m: next(g for g in m.groups() if g), md)
 
 
 def regress_command(

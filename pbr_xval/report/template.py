@@ -10,51 +10,95 @@ INDEX_HTML = """<!DOCTYPE html>
 <meta name="generator" content="pbr-xval {{ prov.pbr_xval_version }}">
 <title>{{ title }}</title>
 <style>
-body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; max-width: 1100px;
-       margin: 2em auto; padding: 0 1em; color: #1b1b1b; line-height: 1.45; }
-h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
-h2 { border-bottom: 1px solid #bbb; margin-top: 2.2em; }
-nav ol { columns: 2; }
-table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: .88em; }
-th, td { border: 1px solid #ccc; padding: .25em .55em; text-align: right; }
+* { box-sizing: border-box; }
+body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, sans-serif; max-width: 1320px;
+       margin: 1.2em auto; padding: 0 1em; color: #1b1b1b; line-height: 1.4; overflow-wrap: anywhere; }
+h1 { font-size: 1.6em; border-bottom: 2px solid #444; padding-bottom: .15em; margin: 0 0 .2em; }
+h2 { font-size: 1.3em; border-bottom: 1px solid #bbb; margin: 1.6em 0 .4em; }
+h3 { font-size: 1.05em; margin: 1em 0 .3em; }
+table { border-collapse: collapse; margin: .4em 0 .8em; font-size: .86em; max-width: 100%; }
+th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; vertical-align: top; }
 th { background: #f1f1f1; }
 td.text, th.text { text-align: left; }
-figure { margin: 1.2em 0; }
-figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
-figcaption { font-size: .9em; color: #333; }
-.failed { border-left: 5px solid #c62828; padding-left: .8em; background: #fff4f4; }
-.interrupted { border-left: 5px solid #ef6c00; padding-left: .8em; background: #fff8ef; }
+.run { display: grid; grid-template-columns: minmax(0, 2fr) minmax(0, 3fr); gap: 0 2em; font-size: .86em; }
+.run > div { min-width: 0; }
+.run h3 { margin: .3em 0 .1em; font-size: 1em; }
+.run ul { margin: 0; padding-left: 1.1em; }
+.run li.one { white-space: nowrap; overflow: hidden; text-overflow: ellipsis; }
+table.verdict { font-size: .9em; width: 100%; table-layout: fixed; }
+table.verdict th { text-align: left; font-weight: 600; }
+table.verdict th small { display: block; font-weight: normal; color: #444; }
+table.verdict th.eng { width: 9em; }
+table.verdict td { text-align: left; line-height: 1.3; }
+table.verdict .v { font-weight: 600; font-variant-numeric: tabular-nums; }
+table.verdict .c { color: #555; font-size: .88em; }
+td.pass { background: #eef8ee; } td.attention { background: #fff3dd; } td.failed { background: #fde8e8; }
+td.reference { background: #f3f3f8; } td.none, td.skipped { background: #fafafa; color: #666; }
+.mark { font-weight: bold; } td.pass .mark { color: #2e7d32; } td.attention .mark { color: #b26a00; }
+td.failed .mark { color: #c62828; }
+ul.findings { margin: .2em 0; padding-left: 1.2em; }
+ul.findings li { margin: .1em 0; }
+ul.headlines { margin: .2em 0; padding-left: 1.2em; font-size: .95em; }
+.figs { display: grid; grid-template-columns: repeat(2, minmax(0, 1fr)); gap: .6em 1em; }
+figure { margin: .4em 0; }
+figure.wide { grid-column: 1 / -1; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; display: block; }
+figcaption { font-size: .85em; color: #333; }
+.failed-sec { border-left: 5px solid #c62828; padding-left: .8em; background: #fff4f4; }
+.interrupted-sec { border-left: 5px solid #ef6c00; padding-left: .8em; background: #fff8ef; }
 .status-failed { color: #c62828; font-weight: bold; }
-.notes { font-size: .9em; color: #444; }
-.headline td:first-child { text-align: left; }
-pre { background: #f6f6f6; padding: .6em; overflow-x: auto; font-size: .82em; }
-details { margin: .4em 0; }
+.notes { font-size: .85em; color: #444; }
+pre { background: #f6f6f6; padding: .6em; overflow-x: auto; font-size: .8em; white-space: pre-wrap; }
+details { margin: .3em 0; }
 summary { cursor: pointer; }
 code { background: #f3f3f3; padding: 0 .2em; }
 .small { font-size: .85em; color: #555; }
+nav { font-size: .9em; }
+nav a { margin-right: 1em; }
 </style>
 </head>
 <body>
 <h1>{{ title }}</h1>
-{% if description %}<p>{{ description }}</p>{% endif %}
-<p class="small">Generated {{ prov.date }} by pbr-xval {{ prov.pbr_xval_version }}{% if prov.command_line %} — <code>{{ prov.command_line }}</code>{% endif %}.
+<p class="small">{% if description %}{{ description }} {% endif %}Generated {{ prov.date }} by pbr-xval {{ prov.pbr_xval_version }}{% if prov.wall_time_s %} in {{ "%.0f"|format(prov.wall_time_s) }} s{% endif %}{% if prov.quick %} (quick){% endif %}.
 {% if n_failed %}<span class="status-failed">{{ n_failed }} section(s) failed or did not run.</span>{% endif %}</p>
-{% if global_notes %}
-<ul class="notes">
-{% for n in global_notes %}<li>{{ n }}</li>
-{% endfor %}
-</ul>
+
+<section id="run" class="run">
+<div><h3>Scenarios</h3>
+<ul>
+{% for sc in scenarios %}<li>{% if sc.label %}<strong>{{ sc.label }}</strong>: {% endif %}{{ sc.summary or sc.name }}</li>
+{% endfor %}</ul></div>
+<div><h3>Engines and settings</h3>
+<ul>
+{% for e in engines %}<li class="one" title="{{ e.settings_full }}"><strong>{{ e.name }}</strong> {{ e.versions_short }} — {{ e.settings_short }}</li>
+{% endfor %}</ul></div>
+</section>
+
+<section id="verdict">
+<h2>Verdict</h2>
+{% if verdict.cases %}
+<ul class="headlines">
+{% for h in verdict_headlines %}<li>{{ h }}</li>
+{% endfor %}</ul>
+<table class="verdict">
+<thead><tr><th class="eng">engine</th>{% for c in verdict.cases %}<th data-case="{{ c.key }}"><a href="#{{ c.anchor }}">{{ c.title }}</a><small>vs {{ c.reference_text }}; tolerance {{ c.tolerance_text }}</small></th>{% endfor %}</tr></thead>
+<tbody>
+{% for e in verdict.engines %}<tr><th class="text eng">{{ e }}</th>{% for c in verdict.cases %}{% set cell = verdict.cells.get((e, c.key)) %}{% if cell %}<td class="{{ cell.status }}" data-engine="{{ e }}" data-case="{{ c.key }}" data-status="{{ cell.status }}"{% if cell.value is not none %} data-value="{{ cell.value }}"{% endif %}{% if cell.deviation is not none %} data-deviation="{{ cell.deviation }}"{% endif %}{% if cell.message %} title="{{ cell.message }}"{% endif %}><span class="v">{{ cell.value_text }}</span>{% if cell.deviation_text %} <span class="d">{{ cell.deviation_text }}</span>{% endif %} <span class="mark">{{ cell.mark }}</span>{% if cell.tolerance is not none %} <span class="c">(±{{ "%.2f"|format(100 * cell.tolerance) }} %)</span>{% endif %}<br><span class="c">{{ cell.cost_text }}</span></td>{% else %}<td class="none"></td>{% endif %}{% endfor %}</tr>
+{% endfor %}</tbody>
+</table>
+{% if verdict_findings %}<ul class="findings">
+{% for f in verdict_findings %}<li>{{ f }}</li>
+{% endfor %}</ul>{% else %}<p class="small">No disagreement beyond tolerance.</p>{% endif %}
+{% else %}<p class="small">No threshold or fragility study in this report: no verdict table.</p>
+{% for f in verdict_findings %}<p>{{ f }}</p>{% endfor %}
 {% endif %}
-<nav>
-<h2 id="contents">Contents</h2>
-<ol>
-{% for s in sections %}<li><a href="#{{ s.anchor }}">{{ s.title }}</a>{% if s.status != "ok" %} <span class="status-failed">({{ s.status }})</span>{% endif %}</li>
-{% endfor %}<li><a href="#provenance">Provenance</a></li>
-</ol>
-</nav>
+{% if global_notes %}<ul class="notes">
+{% for n in global_notes %}<li>{{ n }}</li>
+{% endfor %}</ul>{% endif %}
+<nav>Sections: {% for s in sections %}<a href="#{{ s.anchor }}">{{ s.title }}</a>{% if s.status != "ok" %} <span class="status-failed">({{ s.status }})</span>{% endif %} {% endfor %}<a href="#provenance">Provenance</a></nav>
+</section>
 
 {% for s in sections %}
-<section id="{{ s.anchor }}"{% if s.status != "ok" %} class="{{ s.status }}"{% endif %}>
+<section id="{{ s.anchor }}"{% if s.status != "ok" %} class="{{ s.status }}-sec"{% endif %}>
 <h2>{{ s.title }}</h2>
 <p class="small">study <code>{{ s.kind }}</code>{% if s.scenario %} on scenario <code>{{ s.scenario }}</code>{% endif %}; wall time {{ s.wall }}</p>
 {% if s.summary_html %}
@@ -65,33 +109,27 @@ code { background: #f3f3f3; padding: 0 .2em; }
 {% endif %}
 {% for t in s.summary_tables %}{{ t }}
 {% endfor %}
-{% if s.headline %}
-<table class="headline">
-<thead><tr><th class="text">headline</th><th>value</th></tr></thead>
-<tbody>
-{% for k, v in s.headline %}<tr><td class="text">{{ k }}</td><td>{{ v }}</td></tr>
-{% endfor %}
-</tbody>
-</table>
-{% endif %}
+{% if s.figures %}<div class="figs">
 {% for f in s.figures %}
-<figure id="{{ f.anchor }}">
+<figure id="{{ f.anchor }}"{% if f.wide %} class="wide"{% endif %}>
 <img src="{{ f.data_uri }}" alt="{{ f.alt }}" width="{{ f.width }}" height="{{ f.height }}">
-<figcaption>{{ f.caption }}{% if f.csv %} <a href="{{ f.csv }}">Data: {{ f.csv }}</a>{% endif %}</figcaption>
+<figcaption>{{ f.caption }}{% if f.csv %} Data: <a href="{{ f.csv }}">{{ f.csv }}</a>{% endif %}</figcaption>
 </figure>
 {% endfor %}
-{% for t in s.tables %}
-<h3>{{ t.name }}</h3>
+</div>{% endif %}
+{% if s.tables %}<p class="small">Tables: {% for t in s.tables %}<a href="{{ t.csv }}">{{ t.name }}</a> ({{ t.rows }} rows{% if t.parquet %}, <a href="{{ t.parquet }}">Parquet</a>{% endif %}){% if not loop.last %} · {% endif %}{% endfor %}</p>{% endif %}
+{% for t in s.inline_tables %}
+<details><summary>{{ t.name }} ({{ t.rows }} rows{% if t.truncated %}, first {{ t.shown }} shown{% endif %})</summary>
 {{ t.html }}
-<p class="small">{% if t.truncated %}First {{ t.shown }} of {{ t.rows }} rows. {% endif %}Full table: <a href="{{ t.csv }}">{{ t.csv }}</a>{% if t.parquet %}, <a href="{{ t.parquet }}">{{ t.parquet }}</a>{% endif %}</p>
+</details>
 {% endfor %}
 {% if s.notes %}
-<div class="notes"><strong>Notes</strong>
+<details class="notes"><summary>Notes ({{ s.notes|length }})</summary>
 <ul>
 {% for n in s.notes %}<li>{{ n }}</li>
 {% endfor %}
 </ul>
-</div>
+</details>
 {% endif %}
 {% if s.error %}
 <details><summary>Error details</summary>
@@ -106,16 +144,8 @@ code { background: #f3f3f3; padding: 0 .2em; }
 
 <section id="provenance">
 <h2>Provenance</h2>
-<table>
-<tbody>
-<tr><th class="text">pbr-xval version</th><td class="text">{{ prov.pbr_xval_version }}</td></tr>
-<tr><th class="text">date</th><td class="text">{{ prov.date }}</td></tr>
-<tr><th class="text">command line</th><td class="text"><code>{{ prov.command_line }}</code></td></tr>
-{% if prov.study_file %}<tr><th class="text">study file</th><td class="text"><code>{{ prov.study_file }}</code></td></tr>{% endif %}
-{% if prov.study_file_sha256 %}<tr><th class="text">study file SHA-256</th><td class="text"><code>{{ prov.study_file_sha256 }}</code></td></tr>{% endif %}
-</tbody>
-</table>
-<h3>Scenarios</h3>
+<p class="small">pbr-xval {{ prov.pbr_xval_version }} · {{ prov.date }} · <code>{{ prov.command_line }}</code>{% if prov.study_file %} · study file <code>{{ prov.study_file }}</code>{% endif %}</p>
+<details><summary>Scenarios (content hashes)</summary>
 <table>
 <thead><tr><th class="text">scenario</th><th class="text">SHA-256 (content + referenced files)</th><th class="text">file</th></tr></thead>
 <tbody>
@@ -123,31 +153,31 @@ code { background: #f3f3f3; padding: 0 .2em; }
 {% endfor %}
 </tbody>
 </table>
-<h3>Engines</h3>
+{% if prov.study_file_sha256 %}<p class="small">study file SHA-256 <code>{{ prov.study_file_sha256 }}</code></p>{% endif %}
+</details>
+<details><summary>Engines (versions and complete settings)</summary>
 {% for e in engines %}
 <details><summary><strong>{{ e.name }}</strong> — {{ e.versions_short }}</summary>
 <pre>{{ e.json }}</pre>
 </details>
 {% endfor %}
 {% if not engines %}<p class="small">No engine versions were recorded.</p>{% endif %}
-<h3>Machine</h3>
+</details>
+<details><summary>Machine</summary>
 <table>
 <tbody>
 {% for k, v in machine %}<tr><th class="text">{{ k }}</th><td class="text">{{ v }}</td></tr>
 {% endfor %}
 </tbody>
 </table>
+</details>
 {% if assets %}
-<h3>Generated inputs</h3>
-<ul>
-{% for a in assets %}<li><a href="{{ a }}">{{ a }}</a></li>
-{% endfor %}
-</ul>
+<p class="small">Generated inputs: {% for a in assets %}<a href="{{ a }}">{{ a }}</a>{% if not loop.last %}, {% endif %}{% endfor %}</p>
 {% endif %}
 <details><summary>Full provenance (JSON)</summary>
 <pre>{{ prov_json }}</pre>
 </details>
-<p class="small">Machine-readable files: <a href="provenance.json">provenance.json</a>, <a href="summary.md">summary.md</a>{% for p in parquet_files %}, <a href="{{ p }}">{{ p }}</a>{% endfor %}.</p>
+<p class="small">Machine-readable files: <a href="provenance.json">provenance.json</a>, <a href="summary.md">summary.md</a>{% if verdict.cases %}, <a href="verdict.csv">verdict.csv</a>{% endif %}{% for p in parquet_files %}, <a href="{{ p }}">{{ p }}</a>{% endfor %}.</p>
 </section>
 </body>
 </html>

@@ -6,7 +6,8 @@
         index.html          self-contained: plots inlined as PNG data URIs, tables as HTML,
                             a provenance section (scenario hashes, engine versions/settings,
                             machine, pbr-xval version, date, command line)
-        summary.md          headline numbers and summary lines (CI logs, pull requests)
+        summary.md          the verdict and summary lines (CI logs, pull requests)
+        verdict.csv         the verdict, one row per engine × case
         provenance.json     the same provenance, machine-readable
         <figure>.csv        the data of every figure, linked under the plot
         <table>.csv         every table
@@ -35,7 +36,12 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pbr_xval.atomic import write_bytes_atomic, write_parquet_atomic, write_text_atomic
+from pbr_xval.atomic import (
+    clean_stale_temporaries,
+    write_bytes_atomic,
+    write_parquet_atomic,
+    write_text_atomic,
+)
 from pbr_xval.study.base import StudyResult
 
 if TYPE_CHECKING:
@@ -44,6 +50,8 @@ if TYPE_CHECKING:
 __all__ = ["atomic_write_bytes", "atomic_write_text", "base_provenance", "write_report"]
 
 MAX_HTML_ROWS = 60
+#: figures wider than this (px) take the full width of the page; narrower ones sit two per row
+WIDE_PX = 760
 
 
 # ------------------------------------------------------------------ atomic i/o
@@ -269,31 +277,26 @@ def _status(r: StudyResult) -> str:
     return "ok"
 
 
-def _flatten(d: Mapping[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
-    out: list[tuple[str, Any]] = []
-    for k, v in d.items():
-        key = f"{prefix}{k}"
-        if isinstance(v, Mapping):
-            out += _flatten(v, key + ".")
-        else:
-            out.append((key, v))
-    return out
-
-
 def _scenarios(results: Iterable[StudyResult], prov: Mapping[str, Any]) -> list[dict[str, str]]:
     seen: dict[str, dict[str, str]] = {}
 
-    def add(name: Any, h: Any, file: Any = "") -> None:
+    def add(name: Any, h: Any, file: Any = "", label: Any = "", summary: Any = "") -> None:
         if not h or not isinstance(h, str):
             return
         if h not in seen:
-            seen[h] = {"name": str(name or "?"), "hash": h, "file": str(file or "")}
+            seen[h] = {
+                "name": str(name or "?"),
+                "hash": h,
+                "file": str(file or ""),
+                "label": str(label or ""),
+                "summary": str(summary or ""),
+            }
         elif file and not seen[h]["file"]:
             seen[h]["file"] = str(file)
 
     for s in prov.get("scenarios", []) or []:
         if isinstance(s, Mapping):
-            add(s.get("name"), s.get("hash"), s.get("file", ""))
+            add(s.get("name"), s.get("hash"), s.get("file", ""), s.get("label", ""), s.get("summary", ""))
     for r in results:
         p = r.provenance if isinstance(r.provenance, Mapping) else {}
         sc = p.get("scenario")
@@ -346,6 +349,44 @@ def _engines(results: Iterable[StudyResult]) -> dict[str, dict[str, Any]]:
     return out
 
 
+#: settings shown first in an engine's one-line summary
+_KEY_SETTINGS = (
+    "profile",
+    "timestep",
+    "variant",
+    "solver",
+    "lcp_solver",
+    "iterations",
+    "num_solver_iterations",
+    "pgs_iterations",
+    "cone",
+    "collision",
+    "collision_detector",
+    "ground_motion",
+)
+
+
+def _settings_short(by_study: Mapping[str, Any]) -> str:
+    """One line of an engine's settings: key settings first; values that differ between studies listed."""
+    merged: dict[str, list[str]] = {}
+    for st in by_study.values():
+        if not isinstance(st, Mapping):
+            continue
+        for k, v in st.items():
+            if isinstance(v, Mapping) or v is None:
+                continue
+            txt = f"{v:g}" if isinstance(v, float) else _fmt(v)
+            if k == "timestep" and isinstance(v, float):
+                txt = f"{v:g} s"
+            vals = merged.setdefault(str(k), [])
+            if txt not in vals:
+                vals.append(txt)
+    if not merged:
+        return "settings not recorded"
+    keys = [k for k in _KEY_SETTINGS if k in merged] + sorted(k for k in merged if k not in _KEY_SETTINGS)
+    return ", ".join(f"{k} {' / '.join(merged[k])}" for k in keys)
+
+
 def _unique(name: str, used: set[str]) -> str:
     base, i = name, 2
     while name in used:
@@ -390,14 +431,19 @@ def write_report(
 
     parent = out_dir.parent
     parent.mkdir(parents=True, exist_ok=True)
+    clean_stale_temporaries(parent)  # staging folders of killed report writers
     tmp = parent / f"{out_dir.name}.tmp-{os.getpid()}"
     if tmp.exists():
         shutil.rmtree(tmp)
     tmp.mkdir()
     try:
-        used: set[str] = {"index", "summary", "provenance"}
+        from pbr_xval.report.verdict import build_verdict
+
+        used: set[str] = {"index", "summary", "provenance", "verdict"}
         sections: list[dict[str, Any]] = []
         parquet_files: list[str] = []
+        anchors = [f"s{i:02d}_{_slug(r.kind)}" for i, r in enumerate(results, start=1)]
+        verdict = build_verdict(results, anchors)
         for i, r in enumerate(results, start=1):
             prefix = f"s{i:02d}_{_slug(r.kind)}"
             status = _status(r)
@@ -411,12 +457,12 @@ def write_report(
                 "wall": f"{r.wall_time:.1f} s" if r.wall_time >= 1 else f"{r.wall_time * 1000:.0f} ms",
                 "summary_html": [],
                 "summary_tables": [],
-                "headline": [(k, _fmt(v)) for k, v in _flatten(r.headline or {}) if k != "status"],
                 "notes": [md_inline(n) for n in r.notes],
                 "error": rprov.get("traceback") or rprov.get("error") or "",
                 "provenance_json": _dumps({k: v for k, v in rprov.items() if k != "traceback"}),
                 "figures": [],
                 "tables": [],
+                "inline_tables": [],
             }
             items, mtables = _summary_blocks(r.summary)
             sec["summary_html"], sec["summary_tables"] = items, mtables
@@ -439,7 +485,7 @@ def write_report(
                     pq_name = ""
                 table_files[tname] = {"csv": csv, "parquet": pq_name}
                 body, truncated, shown = _table_html(df)
-                sec["tables"].append(
+                sec["inline_tables"].append(
                     {
                         "name": tname,
                         "html": body,
@@ -476,6 +522,7 @@ def write_report(
                         "data_uri": uri,
                         "width": w,
                         "height": h,
+                        "wide": w > WIDE_PX,
                         "alt": fig.caption or fig.name,
                         "caption": md_inline(fig.caption),
                         "csv": csv,
@@ -502,12 +549,20 @@ def write_report(
         engine_rows = [
             {
                 "name": n,
-                "versions_short": ", ".join(f"{k} {v}" for k, v in sorted(info["versions"].items()))
+                "versions_short": ", ".join(
+                    f"{k} {v}" for k, v in sorted(info["versions"].items()) if k != "numpy"
+                )
                 or "versions not recorded",
+                "settings_short": _settings_short(info.get("settings", {})),
+                "settings_full": _dumps(info.get("settings", {}))[:4000],
                 "json": _dumps(info),
             }
             for n, info in sorted(engines.items())
         ]
+        if verdict.cases:
+            import pandas as pd
+
+            atomic_write_bytes(tmp / "verdict.csv", _csv_bytes(pd.DataFrame(verdict.rows())))
         html_text = tpl.render(
             title=title,
             description=description or prov.get("description", ""),
@@ -516,6 +571,9 @@ def write_report(
             sections=sections,
             n_failed=sum(s["status"] != "ok" for s in sections),
             global_notes=[md_inline(n) for n in notes],
+            verdict=verdict,
+            verdict_headlines=[md_inline(h) for h in verdict.headlines],
+            verdict_findings=[md_inline(f) for f in verdict.findings],
             scenarios=scen,
             engines=engine_rows,
             machine=sorted((prov.get("machine") or {}).items()),
@@ -523,7 +581,9 @@ def write_report(
             parquet_files=parquet_files,
         )
         atomic_write_text(tmp / "index.html", html_text)
-        atomic_write_text(tmp / "summary.md", summary_markdown(results, prov, title=title, notes=notes))
+        atomic_write_text(
+            tmp / "summary.md", summary_markdown(results, prov, title=title, notes=notes, verdict=verdict)
+        )
 
         _swap_in(tmp, out_dir)
     except BaseException:
@@ -551,9 +611,18 @@ def _swap_in(tmp: Path, final: Path) -> None:
 
 
 def summary_markdown(
-    results: list[StudyResult], prov: Mapping[str, Any], *, title: str, notes: Iterable[str] = ()
+    results: list[StudyResult],
+    prov: Mapping[str, Any],
+    *,
+    title: str,
+    notes: Iterable[str] = (),
+    verdict: Any = None,
 ) -> str:
-    """The report as Markdown: status table, then each study's summary lines and headline numbers."""
+    """The report as Markdown: the verdict, a status table, then each study's summary lines."""
+    if verdict is None:
+        from pbr_xval.report.verdict import build_verdict
+
+        verdict = build_verdict(results)
     m = prov.get("machine") or {}
     lines = [
         f"# {title}",
@@ -564,6 +633,8 @@ def summary_markdown(
     ]
     if prov.get("command_line"):
         lines += [f"Command: `{prov['command_line']}`", ""]
+    if verdict.cases:
+        lines += ["## Verdict", "", *verdict.markdown(), ""]
     n_bad = sum(_status(r) != "ok" for r in results)
     lines += [
         f"**{len(results) - n_bad} of {len(results)} sections OK**"
@@ -600,10 +671,6 @@ def summary_markdown(
                         lines.append("")
                     lines.append(f"- {ln}")
                 prev_table = is_table
-        hl = [(k, v) for k, v in _flatten(r.headline or {}) if k != "status"]
-        if hl:
-            lines += ["", "| headline | value |", "|---|---|"]
-            lines += [f"| {k} | {_fmt(v)} |" for k, v in hl]
         if r.notes:
             lines += ["", "Notes:"]
             lines += [f"- {n}" for n in r.notes]

@@ -172,13 +172,13 @@ def test_write_report_is_valid_and_self_contained(tmp_path: Path) -> None:
     assert meta["report"]["command_line"] == "pbr-xval report x.toml"
     assert meta["study"]["kind"] == "thresholds"
     assert "machine" in meta["report"] and meta["report"]["pbr_xval_version"]
-    # long tables are truncated in HTML only
-    assert "First 60 of 500 rows" in html
+    # long tables are folded and truncated in HTML only; the full table is the linked CSV
+    assert "theta &lt;long&gt; (500 rows, first 60 shown)" in html
     md = (out / "summary.md").read_text()
     assert "\n| housner | 5.638 |" in md and "<td>housner</td>" in html
-    assert (
-        "# demo" in md and "**FAILED**" in md and "0.2 %" in md and "| threshold_m_s2.mujoco | 5.6387 |" in md
-    )
+    assert "# demo" in md and "**FAILED**" in md and "0.2 %" in md
+    # no second "headline" table repeating the numbers with dotted keys
+    assert "| headline |" not in md and "threshold_m_s2.mujoco" not in html
     prov = json.loads((out / "provenance.json").read_text())
     assert prov["engines"]["mujoco"]["versions"]["mujoco"] == "3.2"
     assert not list(out.parent.glob("*.tmp-*")) and not list(out.parent.glob("*.old-*"))
