@@ -257,7 +257,9 @@ class Recorder:
         if self.failed:
             traj.status = "failed"
             traj.message = self.failed
-        return traj
+        from pbr_xval.diagnostics import apply_standard_diagnostics
+
+        return apply_standard_diagnostics(traj, self.scene)  # regime, impacts, energy, rest: one meaning
 
 
 class StderrCapture:

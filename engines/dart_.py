@@ -361,11 +361,8 @@ class DartEngine(EngineBase):
 
         rec = Recorder(scene, dt)
         cap = StderrCapture()
-        energy: list[float] = []
         steps = 0
-        settled = False
-        inertia_body = inertia
-        energy_dt = max(float(scene.output_dt), 0.01)  # s, energy sampling for the diagnostics (no physics)
+        # energy, regime, impacts, settled: pbr_xval.diagnostics, from the recorded samples
         try:
             with cap.capture():
                 # ---- settle (gravity only, pedestal at rest)
@@ -379,7 +376,6 @@ class DartEngine(EngineBase):
                         if moving:
                             pj.setCommands(zero3)
                         world.step()
-                    settled = True
                 T = body.getTransform()
                 if tilted:
                     rec.start(com0, np.eye(3))
@@ -395,14 +391,12 @@ class DartEngine(EngineBase):
                         T = body.getTransform()
                         fj.setTransform(dart.math.Isometry3(T.rotation(), T.translation() + d0))
                         fj.setLinearVelocity(body.getLinearVelocity() + v0)
-                energy.append(self._energy(body, pj if moving else None, mass, inertia_body, g))
 
                 # ---- excitation
                 # FreeJoint generalised velocities are (ω, v) in world coordinates in dartpy 6.20;
                 # reading them (1 µs) is 4× cheaper than BodyNode.getAngularVelocity(); checked here.
                 fast_omega = _freejoint_velocity_is_world(dart)
                 last = None
-                e_every = max(1, round(energy_dt / dt))
                 for k in range(n):
                     if moving:
                         pj.setCommands(acc[k])
@@ -423,12 +417,8 @@ class DartEngine(EngineBase):
                     pen = max([c.penetrationDepth for c in contacts], default=0.0)
                     omega = rskel.getVelocities()[:3] if fast_omega else body.getAngularVelocity()
                     stop = rec.record((k + 1) * dt, p, T.rotation(), omega, n_contacts=nc, penetration=pen)
-                    if (k + 1) % e_every == 0:
-                        energy.append(self._energy(body, pj if moving else None, mass, inertia_body, g))
                     if stop:
                         break
-            if steps % e_every:
-                energy.append(self._energy(body, pj if moving else None, mass, inertia_body, g))
         except Exception as exc:  # engine error while stepping: report, do not raise
             if not rec.failed:
                 rec.failed = f"dart: engine error after {steps} steps: {exc!r}"
@@ -436,32 +426,10 @@ class DartEngine(EngineBase):
 
         lines = cap.text.splitlines()
         lcp_fail = sum(1 for ln in lines if any(nd in ln for nd in _LCP_FAILURE_NEEDLES))
-        e = np.asarray(energy, dtype=float)
-        e_ref = abs(e[0]) if e.size and e[0] != 0 else 1.0
         diag.update(
             steps=steps,
-            settled=settled,
-            lcp_failure_lines=lcp_fail,
-            stderr_lines=len(lines),
-            stderr_first_line=lines[0][:200] if lines else "",
-            energy_start_J=float(e[0]) if e.size else None,
-            energy_end_J=float(e[-1]) if e.size else None,
-            energy_max_rel_change=float(np.max(np.abs(e - e[0])) / e_ref) if e.size else None,
-            energy_note="kinetic + potential (m g z_com, z above the pedestal top) in the pedestal frame, "
-            "sampled every max(output_dt, 10 ms) and at the end; the excitation does work on the rock, so it is conserved only in free rocking",
+            dart_lcp_failure_lines=lcp_fail,
+            dart_stderr_lines=len(lines),
+            dart_stderr_first_line=lines[0][:200] if lines else "",
         )
         return rec.trajectory(self.name, s, versions, diag)
-
-    @staticmethod
-    def _energy(body: Any, pj: Any, mass: float, inertia: np.ndarray, g: float) -> float:
-        """Kinetic + potential energy (J) of the rock in the pedestal frame."""
-        T = body.getTransform()
-        r = T.rotation()
-        v = body.getLinearVelocity()
-        z = T.translation()[2]
-        if pj is not None:
-            v = v - pj.getVelocities()
-            z = z - pj.getPositions()[2]
-        w = body.getAngularVelocity()
-        iw = r @ inertia @ r.T
-        return float(0.5 * mass * (v @ v) + 0.5 * (w @ iw @ w) + mass * g * z)

@@ -430,35 +430,20 @@ class PyBulletEngine(EngineBase):
             dpos = np.zeros((n + 1, 3))
             dpos[:, :axes] = disp
             dpos_l = dpos.tolist()
-            dvel_l = scene.excitation.velocity(tk).tolist()
             disp_l = disp.tolist()
             drive: list[tuple[float, float, float]] = []
         else:
             acc = scene.excitation.acceleration((np.arange(n) + 0.5) * dt)
             drive = [(-ax, -ay, -g - az) for ax, ay, az in acc.tolist()]
 
-        mass = float(rock.mass)
-        l0, l1, l2 = (float(x) for x in lam)
-        energies: list[float] = []
-        z_ref = float(rock.com[2])
-
-        def energy(r: tuple, v: tuple, w: tuple, z: float) -> float:
-            """Kinetic + potential energy (J) in the pedestal frame, potential from the rest height."""
-            wb0 = r[0] * w[0] + r[3] * w[1] + r[6] * w[2]
-            wb1 = r[1] * w[0] + r[4] * w[1] + r[7] * w[2]
-            wb2 = r[2] * w[0] + r[5] * w[1] + r[8] * w[2]
-            ke = 0.5 * mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-            return ke + 0.5 * (l0 * wb0 * wb0 + l1 * wb1 * wb1 + l2 * wb2 * wb2) + mass * g * (z - z_ref)
-
-        def state(k: int) -> tuple[Any, np.ndarray, tuple, tuple, tuple]:
+        # energy, regime, impacts, settled: pbr_xval.diagnostics, from the recorded samples
+        def state(k: int) -> tuple[Any, np.ndarray, tuple]:
             pos, orn = getpos(body, physicsClientId=cid)
-            lin, ang = getvel(body, physicsClientId=cid)
-            r = getmat(orn)
+            _, ang = getvel(body, physicsClientId=cid)
             if moving:
-                d, v = dpos_l[k], dvel_l[k]
+                d = dpos_l[k]
                 pos = (pos[0] - d[0], pos[1] - d[1], pos[2] - d[2])
-                lin = (lin[0] - v[0], lin[1] - v[1], lin[2] - v[2])
-            return pos, np.array(r).reshape(3, 3), r, lin, ang
+            return pos, np.array(getmat(orn)).reshape(3, 3), ang
 
         def contacts() -> tuple[int, float]:
             cps = getcp(body, physicsClientId=cid)
@@ -466,7 +451,6 @@ class PyBulletEngine(EngineBase):
                 return 0, 0.0
             return len(cps), max(0.0, -min(c[8] for c in cps))
 
-        k_out = max(1, round(scene.output_dt / dt))
         rec = Recorder(scene, dt)
         steps = 0
         t = 0.0
@@ -484,13 +468,10 @@ class PyBulletEngine(EngineBase):
             else:
                 pos, orn = getpos(body, physicsClientId=cid)
                 rec.start(np.array(pos), np.array(getmat(orn)).reshape(3, 3))
-                z_ref = float(pos[2])
-            diagnostics["settled"] = n_settle > 0
             diagnostics["settle_steps"] = n_settle
 
-            com, rm, r, lin, ang = state(0)
+            com, rm, ang = state(0)
             nc, pen = contacts()
-            energies.append(energy(r, lin, ang, com[2]))
             stop = rec.record(0.0, com, rm, ang, n_contacts=nc, penetration=pen)
             k = 0
             while not stop and k < n:
@@ -507,28 +488,15 @@ class PyBulletEngine(EngineBase):
                 k += 1
                 steps += 1
                 t = k * dt
-                com, rm, r, lin, ang = state(k)
+                com, rm, ang = state(k)
                 nc, pen = contacts()
-                if k % k_out == 0:
-                    energies.append(energy(r, lin, ang, com[2]))
                 stop = rec.record(t, com, rm, ang, n_contacts=nc, penetration=pen, force=k == n)
         except Exception as exc:  # an engine error must not escape: report a failed run
             msg = f"pybullet raised {type(exc).__name__}: {exc} at t = {t:.6g} s"
             rec.failed = msg
             rec.events.append(Event("failed", t, {"reason": msg}))
 
-        e_arr = np.asarray(energies, dtype=float)
-        scale = float(rock.mass) * g * float(np.ptp(rock.mesh.vertices[:, 2]))
-        if e_arr.size and np.all(np.isfinite(e_arr)):
-            diagnostics.update(
-                energy_start_J=float(e_arr[0]),
-                energy_end_J=float(e_arr[-1]),
-                energy_max_J=float(e_arr.max()),
-                energy_max_rel_change=float(np.max(np.abs(e_arr - e_arr[0])) / scale),
-                energy_reference="KE + m·g·(z − z_rest); relative change over m·g·(rock height)",
-            )
         diagnostics["steps"] = steps
-        diagnostics["solver_warnings"] = 0  # PyBullet reports none through its API
         traj = rec.trajectory(self.name, s, self.versions(), diagnostics)
         traj.scene_info = {**traj.scene_info, "model": f"pybullet multibody, {model['collision']} collision"}
         return traj

@@ -235,6 +235,15 @@ class Trajectory:
     def impacts(self) -> list[Event]:
         return [e for e in self.events if e.kind == "impact"]
 
+    @property
+    def regime(self) -> str:
+        """What the rock did, from the standard diagnostics (:mod:`pbr_xval.diagnostics`):
+        ``"at rest"``, ``"rocked"``, ``"slid 0.12 m"``, ``"rocked and slid 0.012 m"``, with
+        ``", jumped (0.03 s airborne)"`` when it lost all contact; ``"unknown"`` without them."""
+        from pbr_xval.diagnostics import regime_label
+
+        return regime_label(self.diagnostics)
+
     def rotation_matrices(self) -> np.ndarray:
         """(n, 3, 3) rotation matrices of the rock relative to its resting pose."""
         return quat_to_matrix(self.quat)
@@ -311,7 +320,8 @@ class Trajectory:
             "toppled_at_s": self.toppled_at,
             "peak_abs_theta_rad": float(np.max(np.abs(theta))) if theta.size else 0.0,
             "peak_tilt_rad": float(np.max(self.tilt())) if self.t.size else 0.0,
-            "impacts": len(self.impacts()),
+            "regime": self.regime,
+            "impacts": int(self.diagnostics.get("impacts", len(self.impacts()))),
             "samples": int(self.t.size),
             "wall_time_s": self.wall_time,
         }

@@ -6,6 +6,7 @@ import time
 from collections.abc import Mapping
 from typing import Any
 
+from pbr_xval.diagnostics import ensure_standard_diagnostics
 from pbr_xval.engine import Engine, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.scene import Scene, compile_scene
@@ -30,6 +31,7 @@ def run_scene(scene: Scene, engine: str | Engine, settings: Mapping[str, Any] | 
     t0 = time.perf_counter()
     traj = eng.simulate(scene, full)
     traj.wall_time = time.perf_counter() - t0
+    ensure_standard_diagnostics(traj, scene)  # one meaning per diagnostic, for every engine
     traj.scenario_hash = scene.scenario_hash
     traj.settings = full
     if not traj.versions:

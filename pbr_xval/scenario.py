@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 __all__ = [
     "Contact",
@@ -241,12 +241,69 @@ class RickerMotion(_MotionBase):
     t0: PositiveFloat | None = None
 
 
-class RecordMotion(_MotionBase):
-    type: Literal["record"]
+class _RecordSource(Strict):
+    """Where one recorded component comes from and in which units (docs/scenarios.md)."""
+
     path: str = Field(description="record file, relative to the scenario file")
-    format: Literal["auto", "at2", "table"] = "auto"
-    units: Literal["m/s2", "g", "cm/s2"] = Field("m/s2", description="units of a plain table")
-    dt: PositiveFloat | None = Field(None, description="sample interval of a one-column table, s")
+    format: Literal["auto", "at2", "table", "npz"] = Field(
+        "auto", description="auto: .at2 → at2 (PEER, in g), .npz → npz, anything else → table"
+    )
+    units: Literal["m/s2", "g", "cm/s2"] | None = Field(
+        None,
+        validate_default=True,
+        description="acceleration units of a table or npz array (required: never guessed); AT2 is g",
+    )
+    dt: PositiveFloat | None = Field(None, description="sample interval, s (tables without a time column, npz)")
+    column: str | Annotated[int, Field(ge=0)] | None = Field(
+        None, description="table: the acceleration column, by header name or 0-based index"
+    )
+    time_column: str | Annotated[int, Field(ge=0)] | None = Field(
+        None, description="table: the time column (s), by header name or 0-based index"
+    )
+    array: str | None = Field(None, description="npz: name of the acceleration array")
+    dt_array: str | None = Field(None, description="npz: name of the array holding dt (s)")
+    component_azimuth_deg: Finite | None = Field(
+        None,
+        description="direction of this component, degrees from +x toward +y (default: along the shaking azimuth)",
+    )
+
+    @field_validator("units", mode="after")
+    @classmethod
+    def _units_stated(cls, v: str | None, info: Any) -> str | None:
+        fmt = info.data.get("format", "auto")
+        path = str(info.data.get("path", ""))
+        is_at2 = fmt == "at2" or (fmt == "auto" and path.lower().endswith(".at2"))
+        if v is None and not is_at2:
+            raise ValueError(
+                "missing: the acceleration units of this record (one of 'g', 'm/s2', 'cm/s2'); "
+                "units are never guessed"
+            )
+        if is_at2 and v not in (None, "g"):
+            raise ValueError(f"a PEER AT2 file is in units of g; found units = {v!r}")
+        return v
+
+
+class RecordComponent(_RecordSource):
+    """The second horizontal component of a two-component record (``excitation.second``)."""
+
+    component_azimuth_deg: Finite = Field(description="direction of this component, degrees from +x toward +y")
+
+
+class RecordMotion(_MotionBase, _RecordSource):
+    type: Literal["record"]
+    second: RecordComponent | None = Field(
+        None, description="second horizontal component (H2); both are projected onto the shaking azimuth"
+    )
+    baseline: Literal["none", "mean", "linear", "polynomial"] = Field(
+        "none", description="baseline correction of each component (scipy.signal.detrend / polynomial fit)"
+    )
+    baseline_order: Annotated[int, Field(ge=0, le=10)] = Field(
+        2, description="order of the polynomial baseline"
+    )
+    highpass_hz: PositiveFloat | None = Field(None, description="Butterworth high-pass corner, Hz")
+    lowpass_hz: PositiveFloat | None = Field(None, description="Butterworth low-pass corner, Hz")
+    filter_order: Annotated[int, Field(ge=1, le=12)] = Field(4, description="Butterworth order")
+    zero_phase: bool = Field(True, description="filter forward and backward (sosfiltfilt), no phase shift")
     scale: PositiveFloat = 1.0
     target_pga: PositiveFloat | None = Field(None, description="scale the record to this PGA, m/s²")
     target_pgv: PositiveFloat | None = Field(None, description="scale the record to this PGV, m/s")
@@ -256,6 +313,15 @@ class RecordMotion(_MotionBase):
     def _one_target(self) -> RecordMotion:
         if self.target_pga is not None and self.target_pgv is not None:
             raise ValueError("give at most one of 'target_pga' and 'target_pgv'")
+        if self.second is not None and self.component_azimuth_deg is None:
+            raise ValueError(
+                "a two-component record needs 'component_azimuth_deg' for the first component "
+                "(and 'second.component_azimuth_deg')"
+            )
+        if self.highpass_hz is not None and self.lowpass_hz is not None and self.highpass_hz >= self.lowpass_hz:
+            raise ValueError(
+                f"highpass_hz = {self.highpass_hz} must be below lowpass_hz = {self.lowpass_hz} (a band-pass)"
+            )
         return self
 
 
@@ -420,6 +486,8 @@ class Scenario(Strict):
             out["pedestal.path"] = self.resolve_path(self.pedestal.path)
         if getattr(self.excitation, "type", None) == "record":
             out["excitation.path"] = self.resolve_path(self.excitation.path)
+            if self.excitation.second is not None:
+                out["excitation.second.path"] = self.resolve_path(self.excitation.second.path)
         v = getattr(self.excitation, "vertical", None)
         if v is not None and v.type == "record":
             out["excitation.vertical.path"] = self.resolve_path(v.path)

@@ -419,8 +419,7 @@ def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[s
 
 
 def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
-    from pbr_xval.motion import pulses, records
-    from pbr_xval.motion.processing import scale_to_pga, scale_to_pgv
+    from pbr_xval.motion import pulses
 
     t = spec.type
     if t == "half_sine":
@@ -443,17 +442,18 @@ def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
     elif t == "ricker":
         m = pulses.Ricker(spec.amplitude, spec.frequency, spec.t0)
     elif t == "record":
-        kw: dict[str, Any] = {}
-        if spec.format in ("auto", "table") and not scn.resolve_path(spec.path).suffix.lower() == ".at2":
-            kw = {"dt": spec.dt, "units": spec.units}
-        m = records.read_record(scn.resolve_path(spec.path), format=spec.format, **kw)
-        if spec.target_pga is not None:
-            m = scale_to_pga(m, spec.target_pga)
-        elif spec.target_pgv is not None:
-            m = scale_to_pgv(m, spec.target_pgv)
-        factor = spec.scale * spec.sign
-        if factor != 1.0:
-            m = m.scaled(factor)
+        from pbr_xval.motion.processing import RecordSpecError, record_from_spec
+
+        horizontal = spec is scn.excitation
+        try:
+            m = record_from_spec(
+                spec,
+                scn.resolve_path,
+                azimuth_deg=scn.excitation.azimuth_deg if horizontal else None,
+                key="excitation" if horizontal else "excitation.vertical",
+            )
+        except RecordSpecError as exc:
+            raise sc.ScenarioError(f"scenario {scn.name!r}: {exc}") from None
     elif t == "none":
         return _Zero()
     else:  # pragma: no cover

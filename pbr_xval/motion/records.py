@@ -3,8 +3,12 @@
 Readers
 -------
 * :func:`read_at2` — PEER NGA ``.AT2`` files (units of g).
-* :func:`read_table` — plain text tables (one or two columns).
+* :func:`read_table` — text tables: one column, time + acceleration, or many columns with a
+  header row (columns chosen by name or index), separated by spaces, tabs, commas or semicolons.
+* :func:`read_npz` — one array of a NumPy ``.npz`` archive (e.g. a lab's table motions).
 * :func:`read_record` — dispatch by format name or file extension.
+
+Units are stated by the caller, never guessed from a file (except AT2, which is g by format).
 """
 
 from __future__ import annotations
@@ -21,7 +25,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from .base import GroundMotion, MotionFileError
 
-__all__ = ["FORMATS", "G_STANDARD", "UNITS", "Record", "read_at2", "read_record", "read_table", "write_at2"]
+__all__ = [
+    "FORMATS",
+    "G_STANDARD",
+    "UNITS",
+    "Record",
+    "read_at2",
+    "read_npz",
+    "read_record",
+    "read_table",
+    "write_at2",
+    "write_table",
+]
 
 Arr = NDArray[np.float64]
 
@@ -348,21 +363,49 @@ def write_at2(record: Record, path: str | Path, header: str | None = None) -> Pa
 # ---------------------------------------------------------------------------
 # plain tables
 # ---------------------------------------------------------------------------
-def read_table(
-    path: str | Path, dt: float | None = None, units: str = "m/s2", column: int | None = None
-) -> Record:
-    """Read a plain text table of acceleration.
+def _column_index(
+    which: int | str, names: list[str], ncols: int, path: Path, key: str, header_line: int | None
+) -> int:
+    if isinstance(which, str):
+        if not names:
+            raise MotionFileError(
+                f"{key} = {which!r} names a column but the file has no header row of column names; "
+                "give a 0-based column index",
+                path,
+            )
+        if which not in names:
+            raise MotionFileError(
+                f"{key} = {which!r}: no such column; the header names {', '.join(map(repr, names))}",
+                path,
+                header_line,
+            )
+        return names.index(which)
+    if not (0 <= int(which) < ncols):
+        raise MotionFileError(f"{key} = {which} requested but the file has {ncols} column(s)", path)
+    return int(which)
 
-    Text after ``#`` or ``%`` is a comment; values are separated by whitespace
-    and/or commas.  A first row of only non-numeric tokens is taken as column
-    names.  Layouts:
+
+def read_table(
+    path: str | Path,
+    dt: float | None = None,
+    units: str = "m/s2",
+    column: int | str | None = None,
+    time_column: int | str | None = "auto",
+) -> Record:
+    """Read a text table of acceleration.
+
+    Text after ``#`` or ``%`` is a comment; values are separated by whitespace, commas and/or
+    semicolons. A first row of only non-numeric tokens is taken as the column names.
+    Layouts:
 
     * one column: acceleration; ``dt`` is required.
     * two columns (``column=None``): time (s), acceleration.  dt is read from
       the time column, which must be uniform within 1e-6 relative; if ``dt``
       is also given it must agree with it.  t0 is the first time (≥ 0).
-    * ``column=j``: acceleration is column j (0-based); if j > 0, column 0 is
-      time as above; if j == 0, ``dt`` is required.
+    * ``column=j`` (0-based index, or a header name): the acceleration column. With
+      ``time_column="auto"``, column 0 is time when j > 0; with j == 0 ``dt`` is required.
+    * ``time_column`` (index or header name): the time column; ``None``: no time column
+      (``dt`` required).
 
     Parameters
     ----------
@@ -370,18 +413,20 @@ def read_table(
     dt : float, s, optional
     units : {"m/s2", "g", "cm/s2"}
         Units of the acceleration column ("g" uses :data:`G_STANDARD`).
-    column : int, optional
+    column : int or str, optional
+    time_column : int, str, None or "auto"
 
     Returns
     -------
     Record
-        Acceleration in m/s², ``units`` records the file's units.
+        Acceleration in m/s², ``units`` records the file's units; ``metadata`` holds the
+        column chosen, the time column and the header names.
 
     Raises
     ------
     MotionFileError
-        Non-numeric value, ragged rows, fewer than 2 samples, missing dt,
-        non-uniform or non-increasing time, dt disagreeing with the file.
+        Non-numeric value, ragged rows, fewer than 2 samples, missing dt, an unknown column
+        name, non-uniform or non-increasing time, dt disagreeing with the file.
     ValueError
         Unknown ``units`` or invalid ``dt`` argument.
     """
@@ -394,18 +439,19 @@ def read_table(
     rows: list[list[float]] = []
     rowline: list[int] = []
     names: list[str] = []
+    header_line: int | None = None
     comments: list[str] = []
     for i, line in enumerate(lines, 1):
         m = re.search(r"[#%]", line)
         body, comment = (line[: m.start()], line[m.end() :]) if m else (line, "")
         if comment.strip():
             comments.append(comment.strip())
-        toks = [t for t in re.split(r"[\s,]+", body.strip()) if t]
+        toks = [t for t in re.split(r"[\s,;]+", body.strip()) if t]
         if not toks:
             continue
         vals = [_number(t) for t in toks]
         if not rows and not names and all(v is None for v in vals):
-            names = toks
+            names, header_line = toks, i
             continue
         for t, v in zip(toks, vals, strict=True):
             if v is None or not math.isfinite(v):
@@ -420,23 +466,35 @@ def read_table(
         raise MotionFileError(f"found {len(rows)} data row(s); expected at least 2 samples", path)
     data = np.asarray(rows, dtype=float)
     ncols = data.shape[1]
+    if names and len(names) != ncols:
+        raise MotionFileError(
+            f"the header row has {len(names)} names but the data have {ncols} columns", path, header_line
+        )
     if column is None:
         if ncols > 2:
             raise MotionFileError(
-                f"found {ncols} columns; expected 1 or 2 (pass column= to choose one)", path
+                f"found {ncols} columns; expected 1 or 2 (give column = <header name or index> to choose one)",
+                path,
             )
         column = ncols - 1
-    if not (0 <= column < ncols):
-        raise MotionFileError(f"column={column} requested but the file has {ncols} column(s)", path)
+    col = _column_index(column, names, ncols, path, "column", header_line)
+    if time_column == "auto":
+        tcol: int | None = 0 if col > 0 else None
+    elif time_column is None:
+        tcol = None
+    else:
+        tcol = _column_index(time_column, names, ncols, path, "time_column", header_line)
+        if tcol == col:
+            raise MotionFileError(f"time_column and column are the same column ({col})", path)
     t0 = 0.0
-    if column == 0:
+    if tcol is None:
         if dt is None:
             raise MotionFileError(
-                "no time column and no dt given; pass dt= (s) for a single acceleration column", path
+                "no time column and no dt given; give dt (s) for a table without a time column", path
             )
         step = dt
     else:
-        t = data[:, 0]
+        t = data[:, tcol]
         steps = np.diff(t)
         step = (t[-1] - t[0]) / (t.size - 1)
         if not step > 0:
@@ -459,23 +517,106 @@ def read_table(
             )
         t0 = float(t[0])
     return Record(
-        data[:, column] * UNITS[units], step, t0, name=path.stem, source=str(path),
+        data[:, col] * UNITS[units], step, t0, name=path.stem, source=str(path),
         header="\n".join([" ".join(names), *comments]).strip(), units=units, sha256=digest,
-        metadata={"column": column, "columns": names},
+        metadata={"column": col, "time_column": tcol, "columns": names},
     )  # fmt: skip
 
 
-FORMATS: dict[str, Callable[..., Record]] = {"at2": read_at2, "table": read_table}
+def write_table(record: Record, path: str | Path, units: str = "g", comment: str = "") -> Path:
+    """Write ``record`` as a text table with a header row ``time_s acc_<units>`` (``%.9g``).
+
+    ``comment`` lines are written first, each prefixed with ``#``. Read it back with
+    ``read_table(path, units=units)``.
+    """
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {sorted(UNITS)}, got {units!r}")
+    lines = [f"# {c}" for c in comment.splitlines()] + [f"time_s acc_{units.replace('/', '_')}"]
+    lines += [f"{t:.6f} {a:.9g}" for t, a in zip(record.time, record.acc / UNITS[units], strict=True)]
+    path = Path(path)
+    path.write_text("\n".join(lines) + "\n", encoding="ascii")
+    return path
+
+
+def read_npz(
+    path: str | Path,
+    array: str | None = None,
+    dt: float | None = None,
+    dt_array: str | None = None,
+    units: str = "m/s2",
+) -> Record:
+    """Read one acceleration array of a NumPy ``.npz`` archive.
+
+    Parameters
+    ----------
+    array : name of the (n,) acceleration array; may be omitted when the archive holds one array.
+    dt : sample interval (s), or ``dt_array``: the name of a scalar array holding it.
+    units : {"m/s2", "g", "cm/s2"}
+
+    Raises
+    ------
+    MotionFileError
+        Unknown array names, a non-1-D or non-finite array, a missing or bad dt.
+    """
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {sorted(UNITS)}, got {units!r}")
+    path = Path(path)
+    raw = path.read_bytes()
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            keys = list(z.files)
+            if array is None:
+                if len(keys) != 1:
+                    raise MotionFileError(
+                        f"holds {len(keys)} arrays; give array = <name> (e.g. {keys[:3]!r})", path
+                    )
+                array = keys[0]
+            if array not in keys:
+                near = [k for k in keys if k.split("_")[0] == array.split("_")[0]][:4] or keys[:4]
+                raise MotionFileError(f"no array {array!r}; arrays include {near!r}", path)
+            a = np.asarray(z[array], dtype=np.float64)
+            if dt_array is not None:
+                if dt_array not in keys:
+                    raise MotionFileError(f"no array {dt_array!r} (dt_array) in the archive", path)
+                dtv = np.asarray(z[dt_array], dtype=np.float64)
+                if dtv.size != 1:
+                    raise MotionFileError(
+                        f"dt_array {dt_array!r} has {dtv.size} values; expected one (s)", path
+                    )
+                if dt is not None and abs(float(dtv.reshape(-1)[0]) - dt) > 1e-9 * dt:
+                    raise MotionFileError(
+                        f"dt_array {dt_array!r} holds {float(dtv.reshape(-1)[0])!r} s but dt = {dt!r} s was given",
+                        path,
+                    )
+                dt = float(dtv.reshape(-1)[0])
+    except (OSError, ValueError) as exc:
+        if isinstance(exc, MotionFileError):
+            raise
+        raise MotionFileError(f"cannot be read as a NumPy .npz archive ({exc})", path) from None
+    if dt is None:
+        raise MotionFileError("no dt given; give dt (s) or dt_array (the array holding dt)", path)
+    if a.ndim != 1 or a.size < 2:
+        raise MotionFileError(f"array {array!r} has shape {a.shape}; expected (n,) with n >= 2", path)
+    if not np.all(np.isfinite(a)):
+        raise MotionFileError(f"array {array!r} holds NaN or infinity", path)
+    return Record(
+        a * UNITS[units], dt, name=f"{path.stem}:{array}", source=str(path), units=units,
+        sha256=hashlib.sha256(raw).hexdigest(), metadata={"array": array},
+    )  # fmt: skip
+
+
+FORMATS: dict[str, Callable[..., Record]] = {"at2": read_at2, "table": read_table, "npz": read_npz}
 
 
 def read_record(path: str | Path, format: str = "auto", **kw: Any) -> Record:
-    """Read a record, choosing the reader by ``format`` (``"at2"``, ``"table"`` or ``"auto"``).
+    """Read a record, choosing the reader by ``format`` (``"at2"``, ``"table"``, ``"npz"`` or ``"auto"``).
 
-    ``"auto"`` picks ``at2`` for a ``.at2`` extension (any case), else ``table``.
+    ``"auto"`` picks ``at2`` for a ``.at2`` extension (any case), ``npz`` for ``.npz``, else ``table``.
     Extra keywords go to the reader (e.g. ``dt``, ``units`` for tables).
     """
     if format == "auto":
-        format = "at2" if Path(path).suffix.lower() == ".at2" else "table"
+        suffix = Path(path).suffix.lower()
+        format = {".at2": "at2", ".npz": "npz"}.get(suffix, "table")
     if format not in FORMATS:
         raise ValueError(f"format must be 'auto' or one of {sorted(FORMATS)}, got {format!r}")
     return FORMATS[format](path, **kw)

@@ -175,7 +175,7 @@ def test_lcp_failures_are_counted(base: dict[str, Any]) -> None:
     # PGS as the primary solver with 1 iteration fails on stderr and zeroes the impulses (notes §7.3)
     sc = compile_scene(_scenario(base, amplitude=5.6, duration=0.3, settle_time=0.05))
     tr = run_scene(sc, "dart", {"lcp_solver": "pgs", "pgs_iterations": 1})
-    assert tr.diagnostics["lcp_failure_lines"] > 0
+    assert tr.diagnostics["dart_lcp_failure_lines"] > 0
 
 
 def test_profiles_complete_and_settings_checked() -> None:
