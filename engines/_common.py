@@ -110,6 +110,8 @@ class Recorder:
     contacts: list[int] = field(default_factory=list)
     max_penetration: float = 0.0
     failed: str = ""
+    #: physical criterion: the run ended with the rock past α(φ) but tilting back
+    undecided: bool = False
     _r0t: np.ndarray = field(default_factory=lambda: np.eye(3))
     _z0: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     _com0: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -121,6 +123,13 @@ class Recorder:
     _cos_uplift: float = math.cos(1e-4)
     _toppled: bool = False
     _uplifted: bool = False
+    _physical: bool = False
+    _cos_down: float = 0.0
+    _t_free: float = 0.0
+    _past: bool = False
+    _outward: bool = False
+    _prev_cos: float = 1.0
+    _t_cross: float | None = None
     _by_distance: bool = False
     _z0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
     _com0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
@@ -137,13 +146,24 @@ class Recorder:
         self._max_dist2 = (self.explode_factor * self._size) ** 2
         self._max_omega2 = (self.max_speed / self._size) ** 2
         crit = self.scene.toppling
+        alpha_min = float(np.min(self.scene.rock.stability.alpha))
         if crit.criterion == "critical_tilt":
-            fast = crit.factor * float(np.min(self.scene.rock.stability.alpha))
+            fast = crit.factor * alpha_min
         elif crit.criterion == "tilt_angle":
             fast = math.radians(crit.angle_deg)
+        elif crit.criterion == "physical":
+            # below the smallest critical tilt nothing can be decided (and the rock is not down)
+            fast = min(alpha_min, math.radians(crit.down_angle_deg))
         else:
             fast = math.pi
         self._cos_fast = math.cos(min(fast, math.pi))
+        self._physical = crit.criterion == "physical"
+        self._cos_down = math.cos(math.radians(crit.down_angle_deg))
+        self._t_free = float(self.scene.excitation_end)
+        self._past = False
+        self._outward = False
+        self._prev_cos = 1.0
+        self._t_cross = None
         self._by_distance = crit.criterion == "com_displacement"
         self._z0l = self._z0.tolist()
         self._com0l = self._com0.tolist()
@@ -207,11 +227,18 @@ class Recorder:
         if not self._uplifted and cos_tilt < self._cos_uplift:
             self._uplifted = True
             self.events.append(Event("uplift", t, {"tilt_rad": math.acos(min(1.0, cos_tilt))}))
-        if not self._toppled and (cos_tilt < self._cos_fast or self._by_distance):
+        if self._physical:
+            if not self._toppled and (cos_tilt < self._cos_fast or c[2] < 0.0):
+                stop = self._physical_step(t, c, r, cos_tilt)
+            else:
+                self._past = False
+            self._outward = cos_tilt <= self._prev_cos
+            self._prev_cos = cos_tilt
+        elif not self._toppled and (cos_tilt < self._cos_fast or self._by_distance):
             rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
             if self.scene.is_toppled(np.asarray(c), rel):
                 self._toppled = True
-                self.events.append(Event("toppled", t, {}))
+                self.events.append(Event("toppled", t, {"rule": "first crossing"}))
                 stop = bool(self.scene.toppling.stop_on_topple)
         if force or stop or t >= self._next_out - self._eps_t:
             self.t.append(float(t))
@@ -222,6 +249,47 @@ class Recorder:
                 self._next_out += self._out_dt
         return stop
 
+    def _decide(self, t: float, rule: str) -> bool:
+        """Record the physical toppling decision at ``t`` (s); returns whether to stop."""
+        self._toppled = True
+        t_cross = self._t_cross if self._t_cross is not None else t
+        self.events.append(Event("toppled", t_cross, {"decided_at": t, "rule": rule}))
+        return bool(self.scene.toppling.stop_on_topple)
+
+    def _physical_step(self, t: float, c: list[float], r: list[float], cos_tilt: float) -> bool:
+        """One step of the physical toppling decision (see :class:`pbr_xval.scenario.Toppling`).
+
+        Called only when the tilt exceeds the smallest critical tilt or the COM is below the
+        pedestal top; returns True when the run should stop.
+        """
+        if c[2] < 0.0:
+            return self._decide(t, "down: the centre of mass dropped below the pedestal top")
+        rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+        past = self.scene.past_critical(rel)
+        if past and not self._past:
+            self._t_cross = t
+        self._past = past
+        # down: past the critical tilt and beyond the down angle (a squat rock whose α(φ) exceeds
+        # the down angle in some direction is not down until it is past α there too)
+        if past and cos_tilt <= self._cos_down + 1e-12:
+            return self._decide(t, "down: tilt reached the down angle")
+        if past and t >= self._t_free - self._eps_t and cos_tilt <= self._prev_cos:
+            return self._decide(t, "past the critical tilt and tilting outward after the excitation ended")
+        return False
+
+    def finish(self) -> None:
+        """End-of-run part of the physical decision: past α(φ) and not tilting back → toppled.
+
+        Called by :meth:`trajectory`; a rock past α(φ) but tilting back when the run ends is not
+        counted as toppled and ``toppling_undecided`` is set in the diagnostics.
+        """
+        if not self._physical or self._toppled or self.failed or not self._past or not self.t:
+            return
+        if self._outward:
+            self._decide(self.t[-1], "past the critical tilt and not tilting back at the end of the run")
+        else:
+            self.undecided = True
+
     def trajectory(
         self,
         engine: str,
@@ -230,12 +298,14 @@ class Recorder:
         diagnostics: dict[str, Any] | None = None,
     ) -> Trajectory:
         """Build the Trajectory (failed if a NaN or explosion was seen)."""
+        self.finish()
         diag = {
             "max_penetration_m": self.max_penetration,
             "contacts_min": int(min(self.contacts)) if self.contacts else None,
             "contacts_max": int(max(self.contacts)) if self.contacts else None,
             "contacts_mean": float(np.mean(self.contacts)) if self.contacts else None,
             "nan_or_explosion": bool(self.failed),
+            "toppling_undecided": bool(self.undecided),
         }
         diag.update(diagnostics or {})
         n = len(self.t)

@@ -33,7 +33,15 @@ from pathlib import Path
 from typing import Annotated, Any, Literal, Union
 
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 __all__ = [
     "Contact",
@@ -395,18 +403,39 @@ class InitialState(Strict):
 
 
 class Toppling(Strict):
-    """When a run counts as toppled.
+    """When a run counts as toppled (the full definition is in ``docs/toppling.md``).
 
-    * ``critical_tilt``: the tilt exceeds ``factor`` × the critical tilt angle α(φ) of the rock
-      in the current tilt direction φ (the seed's θ/α > 1 for a block).
-    * ``tilt_angle``: the tilt exceeds ``angle_deg``.
-    * ``com_displacement``: the horizontal COM displacement exceeds ``distance`` (m).
+    * ``physical`` (default): the rock has toppled when it can no longer return. Passing the
+      critical tilt α(φ) while the ground still moves is not enough — the reversing half of a
+      pulse can pull the rock back. The decision is taken
+
+      - at any time, once the rock is plainly **down**: it is past its critical tilt α(φ) and
+        its tilt reaches ``down_angle_deg`` (90° by default: the rock lies on another face; see
+        the docs for why shaking cannot lift it back), or its centre of mass drops below the
+        pedestal top (it fell off the pedestal);
+      - after the excitation has ended (the pedestal frame is inertial again), once the rock is
+        past its critical tilt α(φ) and still tilting outward: past α the moment of gravity
+        about the pivot points outward and nothing reverses it;
+      - at the end of the run, if the rock is past α(φ) and not tilting back.
+
+      Otherwise the run goes on to the end of ``duration``. The toppled event's time is the
+      last outward crossing of α(φ) (the instant of no return); ``decided_at`` and ``rule``
+      say when and why it was decided.
+    * ``critical_tilt``: the first crossing of ``factor`` × α(φ) (the seed's θ/α > 1 for a
+      block). This is the first-crossing rule: it misses safe bands above the first
+      overturning level (a rock pulled back after crossing α counts as toppled).
+    * ``tilt_angle``: the first time the tilt exceeds ``angle_deg``.
+    * ``com_displacement``: the first time the horizontal COM displacement exceeds
+      ``distance`` (m).
     """
 
-    criterion: Literal["critical_tilt", "tilt_angle", "com_displacement"] = "critical_tilt"
+    criterion: Literal["physical", "critical_tilt", "tilt_angle", "com_displacement"] = "physical"
     factor: PositiveFloat = 1.0
     angle_deg: Annotated[float, Field(gt=0, lt=180)] | None = None
     distance: PositiveFloat | None = None
+    down_angle_deg: Annotated[float, Field(gt=0, le=180)] = Field(
+        90.0, description="physical criterion: tilt at which the rock is down whatever the ground does, degrees"
+    )
     stop_on_topple: bool = True
 
     @model_validator(mode="after")
@@ -416,6 +445,28 @@ class Toppling(Strict):
         if self.criterion == "com_displacement" and self.distance is None:
             raise ValueError("criterion 'com_displacement' needs 'distance'")
         return self
+
+    def describe(self) -> dict[str, Any]:
+        """The criterion as recorded in every result's provenance."""
+        d: dict[str, Any] = {"criterion": self.criterion}
+        if self.criterion == "physical":
+            d["down_angle_deg"] = self.down_angle_deg
+            d["definition"] = (
+                "toppled when it cannot return: down (past the critical tilt with tilt >= down_angle_deg, "
+                "or COM below the pedestal top) at any time, or past the critical tilt and still tilting "
+                "outward after the excitation ended, or past it and not tilting back at the end of the run"
+            )
+        elif self.criterion == "critical_tilt":
+            d["factor"] = self.factor
+            d["definition"] = "first crossing of factor x critical tilt alpha(phi)"
+        elif self.criterion == "tilt_angle":
+            d["angle_deg"] = self.angle_deg
+            d["definition"] = "first crossing of angle_deg"
+        else:
+            d["distance"] = self.distance
+            d["definition"] = "first horizontal COM displacement >= distance"
+        d["stop_on_topple"] = self.stop_on_topple
+        return d
 
 
 class Model(Strict):
@@ -493,12 +544,34 @@ class Scenario(Strict):
             out["excitation.vertical.path"] = self.resolve_path(v.path)
         return out
 
-    @model_validator(mode="after")
-    def _check_engines_table(self) -> Scenario:
-        for k, v in self.engines.items():
-            if not isinstance(v, dict):
-                raise ValueError(f"engines.{k} must be a table of settings, found {v!r}")
-        return self
+    @field_validator("engines")
+    @classmethod
+    def _check_engines_table(cls, engines: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        """Engine names must be registered (a typo'd table is not ignored); values are range-checked."""
+        from pbr_xval.engine import registered_names
+        from pbr_xval.settings_spec import check_settings
+
+        known = registered_names()
+        for k, v in engines.items():
+            if k not in known:
+                raise ValueError(f"unknown engine {k!r}; expected one of {', '.join(known)}")
+            problems = check_settings(k, v, complete=False, where=f"engines.{k}")
+            if problems:
+                raise ValueError(problems[0])
+        return engines
+
+    @field_validator("output_dt")
+    @classmethod
+    def _bounded_samples(cls, output_dt: float, info: ValidationInfo) -> float:
+        """Refuse runs whose recorded trajectory would not fit in memory (duration 1e9 s did)."""
+        from pbr_xval.settings_spec import check_sample_count
+
+        duration = info.data.get("duration")
+        if duration is not None:
+            problem = check_sample_count(duration, output_dt)
+            if problem:
+                raise ValueError(problem)
+        return output_dt
 
     # -------------------------------------------------------------- hashing
     def normalised(self) -> dict[str, Any]:
@@ -524,7 +597,12 @@ class Scenario(Strict):
         data = self.model_dump(mode="json", exclude_unset=True)
         node = data
         parts = key.split(".")
+        model: Any = self
         for p in parts[:-1]:
+            model = getattr(model, p, None)
+            if p not in node and isinstance(model, BaseModel):
+                # a table left at its defaults (e.g. [contact] not written)
+                node[p] = model.model_dump(mode="json")
             if not isinstance(node.get(p), dict):
                 raise ScenarioError(f"scenario {self.name!r}: no table {p!r} on the way to key {key!r}")
             node = node[p]
@@ -619,7 +697,7 @@ def _format_errors(exc: ValidationError, source: Path | None) -> str:
             msg = "missing required key"
             found = None
         else:
-            msg = err["msg"]
+            msg = err["msg"].removeprefix("Value error, ")
         text = f"{where}: key '{key}': {msg}"
         if found is not None and not isinstance(found, dict):
             text += f" (found {found!r})"

@@ -248,8 +248,31 @@ class Scene:
             right=(float(xs.max()), -h),
         )
 
+    @property
+    def excitation_end(self) -> float:
+        """float, s: time after which the pedestal no longer accelerates (the frame is inertial)."""
+        return float(self.excitation.duration)
+
+    def past_critical(self, rot: np.ndarray) -> bool:
+        """Whether the rock's tilt is at or beyond its critical tilt α(φ) in its tilt direction.
+
+        Parameters
+        ----------
+        rot : (3, 3) — rotation of the rock relative to its rest pose.
+        """
+        top = rot[:, 2]
+        tilt = math.acos(max(-1.0, min(1.0, float(top[2]))))
+        if tilt < 1e-9:
+            return False
+        phi = math.atan2(top[1], top[0])
+        return tilt >= float(self.rock.stability.alpha_at(phi))
+
     def is_toppled(self, com: np.ndarray, rot: np.ndarray) -> bool:
-        """Apply the toppling criterion to one state.
+        """Apply a first-crossing toppling criterion to one state.
+
+        For ``criterion = "physical"`` this answers "is the rock down" (tilt ≥ the down angle);
+        the physical decision itself needs the history and is taken by the engines' recorder
+        (:class:`pbr_xval.engines._common.Recorder`) and the analytical integrators.
 
         Parameters
         ----------
@@ -263,6 +286,8 @@ class Scene:
         tilt = math.acos(max(-1.0, min(1.0, float(top[2]))))
         if crit.criterion == "tilt_angle":
             return tilt >= math.radians(crit.angle_deg)
+        if crit.criterion == "physical":
+            return tilt >= math.radians(crit.down_angle_deg)
         if tilt < 1e-9:
             return False
         phi = math.atan2(top[1], top[0])
@@ -284,6 +309,8 @@ class Scene:
             "excitation": self.excitation.describe(),
             "reductions": list(self.reductions),
             "rock_info": dict(self.rock.info),
+            "toppling": self.toppling.describe(),
+            "excitation_end_s": self.excitation_end,
         }
 
 
@@ -467,6 +494,11 @@ def compile_scene(scn: sc.Scenario) -> Scene:
     """Build the :class:`Scene` for ``scn``, recording every modelling choice."""
     reductions: list[dict[str, str]] = []
     rock = _rock_model(scn, reductions)
+    from pbr_xval.plausibility import check_rock
+
+    check_rock(
+        scn.rock, rock.mass, float(rock.mesh.volume), rock.mesh.extents, where=f"scenario {scn.name!r}"
+    )
     az = math.radians(scn.excitation.azimuth_deg)
     direction = np.array([math.cos(az), math.sin(az), 0.0])
     if abs(direction[0]) < 1e-15:

@@ -27,6 +27,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Literal
 
 import numpy as np
 
@@ -276,6 +277,9 @@ def simulate_curved_base(
     omega_rest: float = 1e-8,
     zeno_dt: float = 1e-9,
     max_impacts: int = 10_000,
+    decision: Literal["first_crossing", "physical"] = "first_crossing",
+    free_after: float | None = None,
+    impact_ratio: float | None = None,
 ) -> CurvedBaseSolution:
     """Simulate the curved-base block under ground acceleration (rest, rolling, flat slap, toppling).
 
@@ -306,6 +310,14 @@ def simulate_curved_base(
         default is 0 (unstable equilibrium: any rolling counts as toppling) — pass e.g. π/2 to follow the roll.
     omega_rest, zeno_dt, max_impacts
         Return-to-rest rules at θ = 0, as in :func:`pbr_xval.analytical.rocking.simulate_rocking`.
+    decision : {"first_crossing", "physical"}
+        ``first_crossing``: toppled when |θ| first reaches the toppling angle. ``physical``: toppled when
+        the block cannot return — it reaches the end of its arc (|θ| = 90°, down) at any time, or after
+        ``free_after`` it is past θ* and not rolling back (see :class:`pbr_xval.scenario.Toppling`).
+    free_after : float or None
+        Physical rule: end of the excitation (s); None: the last breakpoint.
+    impact_ratio : float or None
+        Velocity ratio η = θ̇₊/θ̇₋ at the flat slap (-); None: angular momentum about the new contact point.
 
     Returns
     -------
@@ -315,7 +327,10 @@ def simulate_curved_base(
     th_top = body.critical_angle if topple_angle is None else float(topple_angle)
     norm = th_top if th_top > 0 else 0.5 * math.pi
     thr = 0.5 * body.h / body.y_G0
-    ratio = body.impact_ratio()
+    if impact_ratio is not None and not (0.0 <= impact_ratio <= 1.0):
+        raise ValueError(f"impact_ratio (velocity ratio η) must be in [0, 1], got {impact_ratio}")
+    ratio = body.impact_ratio() if impact_ratio is None else float(impact_ratio)
+    physical = decision == "physical"
 
     m, c, r, d, IG = body.mass, 0.5 * body.h, body.r, body.d, body.I_G
     q = IG + m * (c * c + d * d + r * r)
@@ -339,9 +354,12 @@ def simulate_curved_base(
         rhs=rhs,
         uplift_margin=margin,
         ratio=lambda _s: ratio,
-        topple_angle=lambda _s: th_top,
+        topple_angle=(lambda _s: 0.5 * math.pi) if physical else (lambda _s: th_top),
         norm_angle=lambda _s: norm,
+        critical_angle=lambda _s: th_top,
     )
+    if free_after is None:
+        free_after = max(breakpoints, default=0.0)
     res = _integrate_hybrid(
         model,
         t_end,
@@ -355,6 +373,8 @@ def simulate_curved_base(
         omega_rest=omega_rest,
         zeno_dt=zeno_dt,
         max_impacts=max_impacts,
+        physical=physical,
+        free_after=float(free_after),
     )
     x = body.x_com(res.theta)
     z = body.z_com(res.theta)
@@ -370,6 +390,7 @@ def simulate_curved_base(
         n_impacts=res.n_impacts,
         rhs_evals=res.rhs_evals,
         peaks=res.peaks,
+        undecided=res.undecided,
         x_com=x,
         z_com=z,
         peak_com_disp=peak,

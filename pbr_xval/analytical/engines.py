@@ -42,6 +42,27 @@ def _scipy_version() -> str:
     return scipy.__version__
 
 
+def _impact_ratio(settings: Mapping[str, Any]) -> float | None:
+    """The ``impact_ratio`` setting: None (angular-momentum rule) or a velocity ratio η in [0, 1]."""
+    from pbr_xval.engine import EngineSettingsError
+
+    eta = settings.get("impact_ratio")
+    if eta is None:
+        return None
+    try:
+        val = float(eta)
+    except (TypeError, ValueError):
+        raise EngineSettingsError(
+            f"impact_ratio: expected a velocity ratio η in [0, 1] or none, got {eta!r}"
+        ) from None
+    if not (0.0 <= val <= 1.0):
+        raise EngineSettingsError(
+            f"impact_ratio: expected a velocity ratio η in [0, 1] (θ̇ after / θ̇ before an impact), got {val}; "
+            "an energy ratio r corresponds to η = √r"
+        )
+    return val
+
+
 def _drive(scene: Any) -> tuple[Any, Any, tuple[float, ...]]:
     exc = scene.excitation
     h = exc.horizontal
@@ -74,6 +95,7 @@ class HousnerEngine(EngineBase):
                 "atol": 1e-12,
                 "max_step": None,
                 "omega_rest": 1e-8,
+                "impact_ratio": None,
             }
         }
 
@@ -108,6 +130,7 @@ class HousnerEngine(EngineBase):
             factor = crit.factor
         elif crit.criterion == "tilt_angle":
             factor = math.radians(crit.angle_deg) / min(body.alpha("left"), body.alpha("right"))
+        eta = _impact_ratio(s)
         sol = simulate_rocking(
             body,
             accel,
@@ -124,9 +147,14 @@ class HousnerEngine(EngineBase):
             dense_dt=scene.output_dt,
             topple_factor=factor,
             omega_rest=s["omega_rest"],
+            decision="physical" if crit.criterion == "physical" else "first_crossing",
+            down_angle=math.radians(crit.down_angle_deg),
+            free_after=scene.excitation_end,
+            impact_ratio=eta,
         )
         events = _events(sol.events)
         diagnostics: dict[str, Any] = {
+            "toppling_undecided": sol.undecided,
             "n_impacts": sol.n_impacts,
             "peak_theta_ratio": sol.peak_theta_ratio,
             "rhs_evals": sol.rhs_evals,
@@ -134,8 +162,11 @@ class HousnerEngine(EngineBase):
             "alpha_right": body.alpha("right"),
             "p_left": body.p("left", scene.gravity),
             "p_right": body.p("right", scene.gravity),
-            "impact_ratio_landing_left": body.impact_ratio("left"),
-            "impact_ratio_landing_right": body.impact_ratio("right"),
+            "impact_ratio_landing_left": body.impact_ratio("left") if eta is None else eta,
+            "impact_ratio_landing_right": body.impact_ratio("right") if eta is None else eta,
+            "impact_rule": "angular momentum (Housner 1963)"
+            if eta is None
+            else f"prescribed velocity ratio η = {eta}",
         }
         t, theta, omega = sol.t, sol.theta, sol.omega
         if variant == "housner1963":
@@ -208,7 +239,14 @@ class CurvedBaseEngine(EngineBase):
 
     def profiles(self) -> dict[str, dict[str, Any]]:
         return {
-            "faithful": {"rtol": 1e-11, "atol": 1e-13, "max_step": None, "clamp": 5.0, "omega_rest": 1e-8}
+            "faithful": {
+                "rtol": 1e-11,
+                "atol": 1e-13,
+                "max_step": None,
+                "clamp": 5.0,
+                "omega_rest": 1e-8,
+                "impact_ratio": None,
+            }
         }
 
     def versions(self) -> dict[str, str]:
@@ -254,6 +292,9 @@ class CurvedBaseEngine(EngineBase):
             dense_dt=scene.output_dt,
             clamp=s["clamp"],
             omega_rest=s["omega_rest"],
+            decision="physical" if scene.toppling.criterion == "physical" else "first_crossing",
+            free_after=scene.excitation_end,
+            impact_ratio=_impact_ratio(s),
         )
         events = _events(sol.events)
         crit = scene.toppling

@@ -201,9 +201,13 @@ class HybridModel:
     ratio : callable
         ``ratio(landing_side) -> float`` velocity ratio θ̇₊/θ̇₋ at θ = 0 (-).
     topple_angle : callable
-        ``topple_angle(side) -> float`` |θ| (rad) at which the body is declared toppled (terminal).
+        ``topple_angle(side) -> float`` |θ| (rad) at which the body is declared toppled (terminal) by
+        the first-crossing rule, or down (whatever the ground does) by the physical rule.
     norm_angle : callable
         ``norm_angle(side) -> float`` angle (rad) used to normalise ``peak_theta_ratio``.
+    critical_angle : callable or None
+        ``critical_angle(side) -> float`` |θ| (rad) beyond which gravity has no restoring moment left
+        (physical rule only; default ``norm_angle``).
     """
 
     rhs: Callable[[float, float, float, int], float]
@@ -211,6 +215,7 @@ class HybridModel:
     ratio: Callable[[int], float]
     topple_angle: Callable[[int], float]
     norm_angle: Callable[[int], float]
+    critical_angle: Callable[[int], float] | None = None
 
 
 @dataclass
@@ -226,6 +231,7 @@ class _HybridResult:
     n_impacts: int
     rhs_evals: int
     segments: list[tuple[float, float, int, Any]] = field(default_factory=list)
+    undecided: bool = False
 
 
 def _find_uplift(model: HybridModel, t0: float, t1: float, scan_dt: float) -> tuple[float, int] | None:
@@ -295,16 +301,27 @@ def _integrate_hybrid(
     zeno_dt: float = 1e-9,
     max_impacts: int = 10_000,
     keep_segments: bool = False,
+    physical: bool = False,
+    free_after: float = 0.0,
 ) -> _HybridResult:
     """Integrate the hybrid rest / rock / impact / topple dynamics of ``model`` from t = 0 to ``t_end``.
 
     Motion on a side is split in stages so that every event function starts strictly away from zero:
     ``rise`` (s·θ̇ > 0, ends at a peak s·θ̇ = 0↓) and ``fall`` (s·θ̇ < 0, ends at an impact s·θ = 0↓ or at a
     re-rise s·θ̇ = 0↑). Integration restarts at each breakpoint.
+
+    Toppling: by default the first crossing of ``model.topple_angle``. With ``physical=True`` (the
+    physical decision of :class:`pbr_xval.scenario.Toppling`) ``topple_angle`` is the *down* angle
+    (toppled whatever the ground does), and after ``free_after`` (s, the end of the excitation) the
+    body has toppled once it is past ``critical_angle`` and not moving back (no restoring moment and
+    nothing to reverse the motion). The toppled event's ``t`` is the last outward crossing of the
+    critical angle; ``decided_at`` and ``rule`` say when and why.
     """
     if t_end <= 0:
         raise ValueError("t_end must be positive")
-    bps = sorted({float(b) for b in breakpoints if 0.0 < b < t_end})
+    crit_angle = model.critical_angle or model.norm_angle
+    extra = (float(free_after),) if physical and 0.0 < free_after < t_end else ()
+    bps = sorted({float(b) for b in (*breakpoints, *extra) if 0.0 < b < t_end})
     bounds = [*bps, float(t_end)]
     scan_dt = min(dense_dt, max_step)
     grid = np.arange(0.0, t_end, dense_dt)
@@ -321,6 +338,7 @@ def _integrate_hybrid(
     last_impact_t = -np.inf
     toppled = False
     toppled_at: float | None = None
+    t_cross: float | None = None  # last outward crossing of the critical angle (physical rule)
 
     def add_grid(ta: float, tb: float, fn: Callable[[np.ndarray], np.ndarray] | None) -> None:
         tt = grid[(grid >= ta) & (grid <= tb)]
@@ -362,14 +380,24 @@ def _integrate_hybrid(
             continue
 
         s = side
-        top = model.topple_angle(s)
-        if s * th >= top:  # already past the toppling angle (initial condition)
-            toppled, toppled_at = True, t
-            events.append({"kind": "toppled", "t": t, "side": _side_name(s), "theta": th, "omega": om})
+        free = physical and t >= free_after
+        top = crit_angle(s) if free else model.topple_angle(s)
+        rule = (
+            "past the critical tilt and tilting outward after the excitation ended"
+            if free
+            else ("down: tilt reached the down angle" if physical else "first crossing")
+        )
+        if s * th >= top and (not free or s * om >= 0.0):  # past the toppling angle at a segment start
+            toppled, toppled_at = True, (t_cross if t_cross is not None else t)
+            events.append(
+                {"kind": "toppled", "t": toppled_at, "decided_at": t, "rule": rule}
+                | {"side": _side_name(s), "theta": th, "omega": om}
+            )
             pieces_t.append(np.array([t]))
             pieces_th.append(np.array([th]))
             pieces_om.append(np.array([om]))
             break
+        crit_s = crit_angle(s)
 
         def f(tt: float, y: np.ndarray, s: int = s) -> list[float]:
             return [y[1], model.rhs(tt, y[0], y[1], s)]
@@ -386,6 +414,14 @@ def _integrate_hybrid(
         ev_omega.terminal = True  # type: ignore[attr-defined]
         ev_omega.direction = -1 if stage == "rise" else 1  # type: ignore[attr-defined]
         evs: list[Any] = [ev_topple, ev_omega]
+        if physical and not free:
+
+            def ev_alpha(tt: float, y: np.ndarray, s: int = s, a: float = crit_s) -> float:
+                return s * y[0] - a
+
+            ev_alpha.terminal = False  # type: ignore[attr-defined]
+            ev_alpha.direction = 1  # type: ignore[attr-defined]
+            evs.append(ev_alpha)
         if stage == "fall":
 
             def ev_impact(tt: float, y: np.ndarray, s: int = s) -> float:
@@ -412,6 +448,8 @@ def _integrate_hybrid(
         if sol.status == -1:
             raise RuntimeError(f"solve_ivp failed at t={t}: {sol.message}")
         rhs_evals += int(sol.nfev)
+        if physical and not free and sol.t_events[2].size:
+            t_cross = float(sol.t_events[2][-1])
         t_new = float(sol.t[-1])
         th_new, om_new = float(sol.y[0, -1]), float(sol.y[1, -1])
         add_grid(t, t_new, sol.sol)
@@ -421,13 +459,22 @@ def _integrate_hybrid(
         if sol.status != 1:  # reached the boundary
             continue
         # which terminal event fired (topple has priority)
-        fired = [k for k, te in enumerate(sol.t_events) if te.size and te[-1] == t_new]
+        terminal = [
+            te if getattr(fn, "terminal", False) else np.zeros(0)
+            for te, fn in zip(sol.t_events, evs, strict=True)
+        ]
+        fired = [k for k, te in enumerate(terminal) if te.size and te[-1] == t_new]
         if not fired:
-            fired = [int(np.argmax([te[-1] if te.size else -np.inf for te in sol.t_events]))]
+            fired = [int(np.argmax([te[-1] if te.size else -np.inf for te in terminal]))]
         k = 0 if 0 in fired else fired[0]
         if k == 0:
-            toppled, toppled_at = True, t
-            events.append({"kind": "toppled", "t": t, "side": _side_name(s), "theta": th, "omega": om})
+            if free:
+                t_cross = t
+            toppled, toppled_at = True, (t_cross if (physical and t_cross is not None) else t)
+            events.append(
+                {"kind": "toppled", "t": toppled_at, "decided_at": t, "rule": rule}
+                | {"side": _side_name(s), "theta": th, "omega": om}
+            )
             break
         if k == 1:
             if stage == "rise":
@@ -473,6 +520,17 @@ def _integrate_hybrid(
         pieces_th.append(np.array([0.0]))
         pieces_om.append(np.array([om_plus]))
 
+    undecided = False
+    if physical and not toppled and mode == "rock" and side * th >= crit_angle(side):
+        if side * om >= 0.0:
+            toppled, toppled_at = True, (t_cross if t_cross is not None else t)
+            events.append(
+                {"kind": "toppled", "t": toppled_at, "decided_at": t}
+                | {"rule": "past the critical tilt and not tilting back at the end of the run"}
+                | {"side": _side_name(side), "theta": th, "omega": om}
+            )
+        else:
+            undecided = True
     tt = np.concatenate(pieces_t)
     yth = np.concatenate(pieces_th)
     yom = np.concatenate(pieces_om)
@@ -501,6 +559,7 @@ def _integrate_hybrid(
         n_impacts=n_impacts,
         rhs_evals=rhs_evals,
         segments=segments,
+        undecided=undecided,
     )
 
 
@@ -551,6 +610,8 @@ class RockingSolution:
     n_impacts: int
     rhs_evals: int
     peaks: np.ndarray
+    #: physical rule: the run ended with the block past α but rocking back (no verdict possible)
+    undecided: bool
 
 
 def simulate_rocking(
@@ -572,6 +633,10 @@ def simulate_rocking(
     omega_rest: float = 1e-8,
     zeno_dt: float = 1e-9,
     max_impacts: int = 10_000,
+    decision: Literal["first_crossing", "physical"] = "first_crossing",
+    down_angle: float = 0.5 * math.pi,
+    free_after: float | None = None,
+    impact_ratio: float | None = None,
 ) -> RockingSolution:
     """Simulate a two-pivot rocking block under horizontal (and optional vertical) ground acceleration.
 
@@ -598,13 +663,27 @@ def simulate_rocking(
     dense_dt : float
         Output grid spacing (s); also the scan step for the uplift condition while at rest.
     topple_factor : float
-        Toppled when |θ| ≥ topple_factor·α_side (-).
+        First-crossing rule: toppled when |θ| ≥ topple_factor·α_side (-).
     omega_rest : float
         Post-impact |θ̇| (rad/s) below which the block is put back to rest.
     zeno_dt : float
         Two impacts closer than this (s) put the block back to rest (impact accumulation).
     max_impacts : int
         Impact count after which the block is put to rest.
+    decision : {"first_crossing", "physical"}
+        ``first_crossing``: toppled at the first crossing of topple_factor·α_side. ``physical``: toppled
+        when the block cannot return — |θ| reaches ``down_angle`` at any time, or, after ``free_after``,
+        |θ| ≥ α_side while not rocking back (see :class:`pbr_xval.scenario.Toppling`).
+    down_angle : float
+        Physical rule: |θ| (rad) at which the block is down (90°: it lies on its side).
+    free_after : float or None
+        Physical rule: time (s) after which the ground no longer accelerates (end of the excitation);
+        None: the last breakpoint, or 0 without breakpoints.
+    impact_ratio : float or None
+        Impact velocity ratio η = θ̇₊/θ̇₋ at every impact (-), the "coefficient of restitution" in the
+        velocity sense (Yim et al. 1980; Zhang & Makris 2001 eq. 42). None: the angular-momentum value
+        of each landing side (Housner 1963: 1 − 1.5 sin²α for a rectangle). Housner and Makris call the
+        *energy* ratio r = η² the coefficient of restitution: do not pass r here.
 
     Returns
     -------
@@ -619,7 +698,10 @@ def simulate_rocking(
     mR_I = {s: body.mass * body.R(s) / body.I_O(s) for s in (1, -1)}
     p2 = {s: body.p(s, g) ** 2 for s in (1, -1)}
     thr = {s: (math.tan(al[s]) if exact else al[s]) for s in (1, -1)}
-    ratios = {s: body.impact_ratio(s) for s in (1, -1)}
+    if impact_ratio is not None and not (0.0 <= impact_ratio <= 1.0):
+        raise ValueError(f"impact_ratio (velocity ratio η) must be in [0, 1], got {impact_ratio}")
+    ratios = {s: (body.impact_ratio(s) if impact_ratio is None else float(impact_ratio)) for s in (1, -1)}
+    physical = decision == "physical"
 
     if exact:
 
@@ -640,9 +722,12 @@ def simulate_rocking(
         rhs=rhs,
         uplift_margin=margin,
         ratio=lambda s: ratios[s],
-        topple_angle=lambda s: topple_factor * al[s],
+        topple_angle=(lambda s: down_angle) if physical else (lambda s: topple_factor * al[s]),
         norm_angle=lambda s: al[s],
+        critical_angle=lambda s: al[s],
     )
+    if free_after is None:
+        free_after = max(breakpoints, default=0.0)
     r = _integrate_hybrid(
         model,
         t_end,
@@ -656,6 +741,8 @@ def simulate_rocking(
         omega_rest=omega_rest,
         zeno_dt=zeno_dt,
         max_impacts=max_impacts,
+        physical=physical,
+        free_after=float(free_after),
     )
     return RockingSolution(
         t=r.t,
@@ -668,4 +755,5 @@ def simulate_rocking(
         n_impacts=r.n_impacts,
         rhs_evals=r.rhs_evals,
         peaks=r.peaks,
+        undecided=r.undecided,
     )

@@ -12,6 +12,10 @@ from rich.table import Table
 
 from pbr_xval.cli._app import ProfileOpt, SetOpt, _fail, _load, _parse_sets, app, console, err
 
+#: ``threshold`` exit statuses besides 0 (bracketed), 1 (engine failure) and 2 (bad input)
+EXIT_TOPPLES_AT_LO = 3
+EXIT_NEVER_TOPPLED = 4
+
 
 @app.command()
 def engines() -> None:
@@ -52,30 +56,99 @@ def check(scenario: Path) -> None:
         console.print(f"  model: {r['what']}: {r['choice']} ({r['why']})")
 
 
+ScenarioSetOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--set",
+        help="scenario value KEY=VALUE, dotted keys as in `threshold --param` (repeatable), e.g. "
+        "--set excitation.amplitude=24 --set contact.restitution=0.2. An engine setting here (no such "
+        "scenario key) is still accepted, with a note: use --engine-set for those.",
+    ),
+]
+EngineSetOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--engine-set", help="engine setting KEY=VALUE (repeatable), e.g. --engine-set timestep=5e-4"
+    ),
+]
+
+
 @app.command()
 def run(
     scenario: Path,
     engine: Annotated[str, typer.Option("--engine", "-e", help="engine name (see `pbr-xval engines`)")],
     out: Annotated[
-        Path | None, typer.Option(help="trajectory Parquet file (default runs/<name>.<engine>.parquet)")
+        Path | None,
+        typer.Option(
+            help="trajectory Parquet file, or an existing folder to write <name>.<engine>.parquet into "
+            "(default runs/<name>.<engine>.parquet)"
+        ),
     ] = None,
-    set_: SetOpt = None,
+    set_: ScenarioSetOpt = None,
+    engine_set: EngineSetOpt = None,
     profile: ProfileOpt = None,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="replace an existing trajectory file (default: refuse)")
+    ] = False,
 ) -> None:
-    """Simulate a scenario with one engine, write the trajectory and print a summary."""
-    from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable
-    from pbr_xval.runner import run_scenario
+    """Simulate a scenario with one engine, write the trajectory and print a summary.
+
+    Everything is checked before the simulation starts: the scenario with its --set values, the
+    engine and its settings, and the output path (an existing file is never replaced silently).
+    """
+    from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable, get_engine
+    from pbr_xval.runner import effective_settings, run_scene
+    from pbr_xval.scenario import ScenarioError
+    from pbr_xval.scene import compile_scene
 
     scn = _load(scenario)
-    settings = _parse_sets(set_)
+    try:
+        eng = get_engine(engine)
+    except EngineNotAvailable as exc:
+        raise _fail(str(exc)) from None
+    settings = _parse_sets(engine_set)
+    engine_keys = set(eng.default_settings())
+    for key, value in _parse_sets(set_).items():
+        try:
+            scn = scn.with_value(key, value)
+        except ScenarioError as exc:
+            if key in engine_keys:  # the old meaning of --set: an engine setting
+                err.print(
+                    f"note: --set {escape(key)}: an engine setting of {engine!r}, not a scenario key; "
+                    f"write --engine-set {escape(key)}=...",
+                    soft_wrap=True,
+                )
+                settings[key] = value
+                continue
+            not_a_key = "unknown key" in str(exc) or "no table" in str(exc)
+            hint = " (engine settings go to --engine-set)" if not_a_key else ""
+            raise _fail(f"--set {key}: {exc}{hint}") from None
     if profile:
         settings["profile"] = profile
+    out = out or Path("runs") / f"{scn.name}.{engine}.parquet"
+    if out.is_dir():
+        out = out / f"{scn.name}.{engine}.parquet"
+    if out.is_dir():
+        raise _fail(f"--out {out}: is a folder; expected a Parquet file path")
+    if out.exists() and not overwrite:
+        raise _fail(f"--out {out}: file exists; pass --overwrite to replace it, or choose another --out")
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise _fail(f"--out {out}: {parent} is a file; expected a folder")
+            break
+    try:
+        scene = compile_scene(scn)
+        full = effective_settings(eng, scene, settings)
+    except (EngineSettingsError, ScenarioError) as exc:
+        raise _fail(f"{scenario}: {exc}") from None
+    except (ValueError, OSError) as exc:
+        raise _fail(f"{scenario}: {exc}") from None
     try:
         with console.status(f"simulating {scn.name} with {engine} ..."):
-            traj = run_scenario(scn, engine, settings)
+            traj = run_scene(scene, eng, full)
     except (EngineNotAvailable, EngineSettingsError, NotApplicable) as exc:
         raise _fail(str(exc)) from None
-    out = out or Path("runs") / f"{scn.name}.{engine}.parquet"
     traj.save_parquet(out)
     table = Table(title=f"{scn.name} — {engine}")
     table.add_column("quantity")
@@ -94,18 +167,24 @@ def threshold(
     engine: Annotated[str, typer.Option("--engine", "-e")],
     param: Annotated[str, typer.Option(help="dotted scenario key to search")] = "excitation.amplitude",
     lo: Annotated[
-        float | None, typer.Option(help="lower end of the scan (default 0.5× the scenario value)")
+        float | None,
+        typer.Option(help="lower end of the scan (default: the uplift bound g·tan α where it applies, else 0.5× the scenario value)"),
     ] = None,
     hi: Annotated[
         float | None, typer.Option(help="upper end of the scan (default 2× the scenario value)")
     ] = None,
-    n_grid: Annotated[int, typer.Option(help="coarse scan points")] = 16,
-    rel_tol: Annotated[float, typer.Option(help="relative bracket width at which bisection stops")] = 1e-4,
+    n_grid: Annotated[int, typer.Option(help="coarse scan points (≥ 2); refined where the response nears toppling")] = 8,
+    rel_tol: Annotated[float, typer.Option(help="relative bracket width at which each transition is narrowed")] = 1e-3,
     set_: SetOpt = None,
     profile: ProfileOpt = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="also write the result as JSON")] = None,
 ) -> None:
-    """Minimum toppling value of a scenario parameter: coarse scan, then bisection (with its tolerance)."""
+    """Toppling bands of a scenario parameter: physics lower bound, coarse scan refined near toppling, every
+    transition narrowed and confirmed by direct runs.
+
+    Exit status: 0 a minimum was bracketed; 3 the lowest scanned value already topples (no minimum: lower
+    --lo); 4 nothing toppled in the range (raise --hi); 2 bad input; 1 an engine failure.
+    """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable
@@ -144,30 +223,49 @@ def threshold(
             raise _fail(str(exc)) from None
         except RuntimeError as exc:
             raise _fail(str(exc), 1) from None
-    unit = {"amplitude": "m/s²", "pgv": "m/s", "pga": "m/s²"}.get(param.rsplit(".", 1)[-1], "")
+    unit = res.unit
     prof = res.settings.get("profile", "")
     variant = res.settings.get("variant")
     label = escape(f"{engine}" + (f" ({variant})" if variant else "") + (f" [{prof}]" if prof else ""))
-    if res.minimum is None:
-        how = (
-            f"it never rocked (largest tilt {res.max_tilt:.1e} rad)"
-            if res.max_tilt < 1e-3
-            else f"it rocked (largest tilt {res.max_tilt:.3g} rad) but never toppled"
-        )
+    u = f" {unit}" if unit else ""
+    crit = res.criterion.get("criterion", "")
+    console.print(
+        f"{label}: {escape(res.message())} "
+        f"({res.n_simulations} simulations, {res.wall_time:.2f} s; toppling criterion: {crit})",
+        soft_wrap=True,
+    )
+    if res.lower_bound is not None:
         console.print(
-            f"{label}: never toppled for {param} in [{res.grid[0]:.6g}, {res.grid[-1]:.6g}] {unit}: "
-            f"{how} ({res.n_simulations} simulations)"
+            f"  physics: below {res.lower_bound:.6g}{u} the peak acceleration stays under g·tan α "
+            "(no rocking can start); those values stand without simulation",
+            soft_wrap=True,
         )
-    else:
-        tol = res.tolerance or 0.0
+    if res.status == "never_toppled" and res.max_tilt < 1e-3:
+        console.print(f"  it never rocked (largest tilt {res.max_tilt:.1e} rad)")
+    for b in res.bands():
+        start_s = f"< {res.lo:.6g}" if b.start is None else f"{b.start:.6g} ± {b.start_tol:.2g}"
+        end_s = f"≥ {res.hi:.6g} (end of scan)" if b.end is None else f"{b.end:.6g} ± {b.end_tol:.2g}"
+        console.print(f"  toppling band: {start_s} … {end_s}{u}")
+    for tr in res.transitions:
+        below, above = tr.lo_run, tr.hi_run
+        if below is None or above is None:
+            continue
+
+        def word(r: object) -> str:
+            return "topples" if r.toppled else f"stands (max θ/α {r.peak_ratio:.3f})"  # type: ignore[attr-defined]
+
         console.print(
-            f"{label}: minimum toppling {param} = [bold]{res.minimum:.4f} {unit}[/] ± {tol:.1e} "
-            f"(bracket rel. width ≤ {res.rel_tol:g}; {res.n_simulations} simulations, {res.wall_time:.2f} s)"
+            f"    confirmed by direct runs: {below.value:.6g}{u} {word(below)}, {above.value:.6g}{u} {word(above)}",
+            soft_wrap=True,
         )
-        bands = res.bands()
-        if len(bands) > 1 or (bands and bands[0].end is not None):
-            for b in bands:
-                end = "end of scan" if b.end is None else f"{b.end:.4f}"
-                console.print(f"  toppling band: {b.start:.4f} … {end} {unit}")
+    console.print(
+        f"  resolution: a band narrower than {100 * res.resolution:.3g} % of the value may be missed between "
+        "scanned values where the response stayed far from toppling (refined where it came close)",
+        soft_wrap=True,
+    )
+    if res.status == "topples_at_lo":
+        err.print(f"warning: {escape(res.message())}", soft_wrap=True)
     if json_out:
         json_out.write_text(json.dumps(res.to_dict(), indent=2, default=str))
+    if res.status != "bracketed":
+        raise typer.Exit(EXIT_TOPPLES_AT_LO if res.status == "topples_at_lo" else EXIT_NEVER_TOPPLED)

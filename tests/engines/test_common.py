@@ -29,8 +29,8 @@ def _rec(**kw):
     return scene, rec
 
 
-def test_recorder_topples_at_alpha() -> None:
-    scene, rec = _rec()
+def test_recorder_first_crossing_topples_at_alpha() -> None:
+    scene, rec = _rec(toppling={"criterion": "critical_tilt"})
     alpha = math.atan(1 / 3)
     e = scene.rocking_axis
     for k, th in enumerate(np.linspace(0, -1.2 * alpha, 200)):
@@ -40,6 +40,52 @@ def test_recorder_topples_at_alpha() -> None:
     tr = rec.trajectory("x", {}, {})
     assert tr.toppled and abs(tr.rocking_angle()[-1]) == pytest.approx(alpha, abs=0.01 * alpha)
     assert abs(tr.rocking_angle()[-2]) < alpha
+
+
+def _drive(rec: Recorder, scene, t: np.ndarray, theta: np.ndarray) -> bool:
+    e = scene.rocking_axis
+    for tk, th in zip(t, theta, strict=True):
+        if rec.record(float(tk), scene.rock.com, rotation_about(e, float(th)), np.zeros(3)):
+            return True
+    return False
+
+
+def test_recorder_physical_decision() -> None:
+    """Past α while the ground moves is not toppling; past α and tilting outward after it is."""
+    alpha = math.atan(1 / 3)
+    scene, rec = _rec()  # default criterion: physical; the half-sine pulse ends at (π − ψ)/ω
+    t_end = scene.excitation_end
+    assert 0.3 < t_end < 0.5
+    # 1) crosses α during the pulse and comes back: not toppled, the run goes on
+    t = np.linspace(0.0, 0.9 * t_end, 300)
+    theta = 1.3 * alpha * np.sin(np.pi * t / (0.9 * t_end))
+    assert not _drive(rec, scene, t, theta)
+    tr = rec.trajectory("x", {}, {})
+    assert not tr.toppled and np.max(np.abs(tr.rocking_angle())) > 1.2 * alpha
+    # 2) crosses α before the pulse ends and keeps tilting outward: decided once the pulse is over,
+    #    the toppled event dated at the crossing
+    scene, rec = _rec()
+    t = np.linspace(0.0, 1.5 * t_end, 600)
+    theta = 1.5 * alpha * t / t.max()
+    assert _drive(rec, scene, t, theta)
+    tr = rec.trajectory("x", {}, {})
+    ev = next(e for e in tr.events if e.kind == "toppled")
+    t_cross = t[np.argmax(theta >= alpha)]
+    assert ev.t == pytest.approx(t_cross, abs=2 * (t[1] - t[0]))
+    assert ev.data["decided_at"] >= t_end and "after the excitation" in ev.data["rule"]
+    assert tr.scene_info["toppling"]["criterion"] == "physical"
+    # 3) down (90°) during the pulse: decided at once
+    scene, rec = _rec()
+    t = np.linspace(0.0, 0.5 * t_end, 300)
+    assert _drive(rec, scene, t, 0.5 * np.pi * t / t.max())
+    ev = next(e for e in rec.trajectory("x", {}, {}).events if e.kind == "toppled")
+    assert ev.data["rule"].startswith("down") and ev.data["decided_at"] < t_end
+    # 4) past α at the end of the run and still tilting outward: toppled; tilting back: undecided
+    scene, rec = _rec(excitation={"type": "none"})
+    t = np.linspace(0.0, 0.2, 50)
+    assert not _drive(rec, scene, t, np.linspace(0.0, 0.99 * alpha, 50))
+    rec.record(0.21, scene.rock.com, rotation_about(scene.rocking_axis, 1.01 * alpha), np.zeros(3))
+    assert rec.trajectory("x", {}, {}).toppled is True
 
 
 def test_recorder_flags_nan_and_explosion() -> None:
