@@ -393,7 +393,7 @@ def test_record_scenario_keys_two_components_corrections_and_provenance(tmp_path
     assert steps[0]["removed_mean_m_s2"] == pytest.approx(0.03 + 0.01 * a1.mean(), rel=1e-6)
     # units are stated, never guessed; a missing one names its key
     del data["excitation"]["second"]["units"]
-    with pytest.raises(ScenarioError, match=r"key 'excitation\.second\.units': missing"):
+    with pytest.raises(ScenarioError, match=r"key 'excitation\.second\.units': (Value error, )?missing"):
         scenario_from_dict(data)
     data["excitation"]["second"]["units"] = "cm/s2"
     data["excitation"]["second"]["column"] = "h3"
