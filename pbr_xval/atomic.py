@@ -2,18 +2,136 @@
 
 A reader (or a resumed run) sees either the old file or the complete new one, never a
 partial write. Used by trajectories, reports, the catalog store and the geometry cache.
+
+Files get the mode a plain ``open()`` would give them (``0o666`` less the umask: 0644 under
+umask 022), not the ``0600`` of :func:`tempfile.mkstemp`, so colleagues and web servers can
+read reports and stores.
+
+Temporary names carry the writer's host and process id (``<name>.pid<pid>@<host>.<random>.tmp``),
+so a temporary left behind by a killed process is recognised as stale (its process is gone) and
+removed by the next atomic write into the same folder (:func:`clean_stale_temporaries`; the report
+writer also calls it for its ``<name>.tmp-<pid>/`` staging folders).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
+import shutil
+import socket
 import tempfile
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["atomic_file", "write_bytes_atomic", "write_parquet_atomic", "write_text_atomic"]
+__all__ = [
+    "atomic_file",
+    "clean_stale_temporaries",
+    "file_mode",
+    "write_bytes_atomic",
+    "write_parquet_atomic",
+    "write_text_atomic",
+]
+
+#: a temporary file of :func:`atomic_file`: ``[.]<name>.pid<pid>@<host>.<random>.tmp``
+_TMP_FILE = re.compile(r"\.pid(\d+)@([A-Za-z0-9_-]*)\.[A-Za-z0-9_]+\.tmp$")
+#: a report staging folder of :mod:`pbr_xval.report.writer`: ``<name>.tmp-<pid>``
+_TMP_DIR = re.compile(r"\.tmp-(\d+)$")
+#: temporaries of older versions (``<name>.<8 random>.tmp``, no pid) count as stale after this, s
+LEGACY_MAX_AGE = 24 * 3600.0
+_LEGACY_TMP_FILE = re.compile(r"\.[A-Za-z0-9_]{8}\.tmp$")
+
+_cleaned: set[Path] = set()
+
+
+def _host() -> str:
+    return re.sub(r"[^A-Za-z0-9_-]", "_", socket.gethostname())[:40]
+
+
+def _umask() -> int:
+    """The process umask, read without changing it (``/proc``) where possible."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    old = os.umask(0o022)  # not thread-safe, hence the /proc route first
+    os.umask(old)
+    return old
+
+
+def file_mode() -> int:
+    """Mode of a newly created file: ``0o666`` less the umask (0644 under umask 022)."""
+    return 0o666 & ~_umask()
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return True  # not a real pid: leave the file alone
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # someone else's live process
+        return True
+    except OSError:
+        return True
+    return True
+
+
+def clean_stale_temporaries(folder: str | os.PathLike[str], *, recursive: bool = False) -> list[Path]:
+    """Remove temporaries in ``folder`` left behind by writers that died; return what was removed.
+
+    ``recursive``: also in every sub-folder (a catalog store's ``engine=*/rock=*/`` tree).
+
+    Removed: :func:`atomic_file` temporaries written on this host by a process that no longer
+    exists; report staging folders ``<name>.tmp-<pid>`` whose process no longer exists; and
+    temporaries of older versions (no pid in the name) untouched for :data:`LEGACY_MAX_AGE`.
+    A temporary of a live process, or of another host (a shared file system), is never touched.
+    """
+    folder = Path(folder)
+    removed: list[Path] = []
+    host = _host()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for e in entries:
+        name = e.name
+        try:
+            if e.is_file(follow_symlinks=False) and name.endswith(".tmp"):
+                m = _TMP_FILE.search(name)
+                if m:
+                    stale = m.group(2) == host and not _pid_alive(int(m.group(1)))
+                else:
+                    stale = (
+                        _LEGACY_TMP_FILE.search(name) is not None
+                        and time.time() - e.stat(follow_symlinks=False).st_mtime > LEGACY_MAX_AGE
+                    )
+                if stale:
+                    Path(e.path).unlink(missing_ok=True)
+                    removed.append(Path(e.path))
+            elif e.is_dir(follow_symlinks=False):
+                m = _TMP_DIR.search(name)
+                if m and not _pid_alive(int(m.group(1))):
+                    shutil.rmtree(e.path, ignore_errors=True)
+                    removed.append(Path(e.path))
+                elif recursive:
+                    removed += clean_stale_temporaries(e.path, recursive=True)
+        except OSError:  # raced with another cleaner or the writer itself
+            continue
+    return removed
+
+
+def _clean_once(folder: Path) -> None:
+    key = folder.resolve()
+    if key not in _cleaned:
+        _cleaned.add(key)
+        clean_stale_temporaries(folder)
 
 
 @contextlib.contextmanager
@@ -21,17 +139,22 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "wb", *, hidden: bool 
     """Open a temporary file beside ``path``; on success it replaces ``path``, on error it is removed.
 
     ``hidden`` starts the temporary name with a dot (readers that skip dot files, like the
-    catalog store's Parquet dataset, never see it).
+    catalog store's Parquet dataset, never see it). The first write into a folder (per process)
+    also removes stale temporaries there (:func:`clean_stale_temporaries`).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    _clean_once(path.parent)
     fd, tmp = tempfile.mkstemp(
-        prefix=("." if hidden else "") + path.name + ".", suffix=".tmp", dir=path.parent
+        prefix=("." if hidden else "") + f"{path.name}.pid{os.getpid()}@{_host()}.",
+        suffix=".tmp",
+        dir=path.parent,
     )
     try:
         with os.fdopen(fd, mode) as fh:
             yield fh
             fh.flush()
+            os.fchmod(fh.fileno(), file_mode())
             os.fsync(fh.fileno())
         os.replace(tmp, path)
     except BaseException:

@@ -464,7 +464,14 @@ class EngineBase:
 
 
 def merge_settings(engine: str, base: Mapping[str, Any], overrides: Mapping[str, Any]) -> dict[str, Any]:
-    """``base`` updated by ``overrides``; unknown override keys are an error."""
+    """``base`` updated by ``overrides``; unknown override keys are an error.
+
+    The result is checked against the central table of setting types, ranges and units
+    (:mod:`pbr_xval.settings_spec`) for every engine: a bad value raises
+    :class:`EngineSettingsError` naming the key, what was found and what was expected.
+    """
+    from pbr_xval.settings_spec import check_settings
+
     out = dict(base)
     for k, v in overrides.items():
         if k not in base:
@@ -472,6 +479,9 @@ def merge_settings(engine: str, base: Mapping[str, Any], overrides: Mapping[str,
                 f"engine {engine!r}: unknown setting {k!r}; expected one of {sorted(base)}"
             )
         out[k] = v
+    problems = check_settings(engine, out)
+    if problems:
+        raise EngineSettingsError("; ".join(problems))
     return out
 
 

@@ -19,9 +19,14 @@ def effective_settings(engine: Engine, scene: Scene, overrides: Mapping[str, Any
     merged = dict(scene.engine_settings.get(engine.name, {}))
     merged.update(overrides or {})
     resolve = getattr(engine, "resolve_settings", None)
-    if resolve is not None:
-        return resolve(merged)
-    return {**engine.default_settings(), **merged}
+    full = resolve(merged) if resolve is not None else {**engine.default_settings(), **merged}
+    from pbr_xval.engine import EngineSettingsError
+    from pbr_xval.settings_spec import check_step_count
+
+    too_long = check_step_count(engine.name, full, scene.duration, scene.settle_time)
+    if too_long:
+        raise EngineSettingsError(too_long)
+    return full
 
 
 def run_scene(scene: Scene, engine: str | Engine, settings: Mapping[str, Any] | None = None) -> Trajectory:

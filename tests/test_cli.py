@@ -9,6 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from pbr_xval.cli import app
+from pbr_xval.engine import Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
 HOUSNER = str(ROOT / "examples" / "housner_halfsine.toml")
@@ -69,8 +70,54 @@ def test_engines_lists_registry() -> None:
 
 
 def test_unknown_setting_is_a_clear_error() -> None:
-    res = runner.invoke(app, ["run", HOUSNER, "--engine", "housner", "--set", "rtoll=1"])
+    res = runner.invoke(app, ["run", HOUSNER, "--engine", "housner", "--engine-set", "rtoll=1"])
     assert res.exit_code == 2 and "unknown setting 'rtoll'" in res.output
+    res = runner.invoke(app, ["run", HOUSNER, "--engine", "housner", "--set", "rtoll=1"])
+    assert res.exit_code == 2 and "key 'rtoll': unknown key" in res.output and "--engine-set" in res.output
+
+
+def test_run_set_takes_scenario_keys(tmp_path: Path) -> None:
+    """--set changes the scenario (as threshold --param does): 24 m/s² topples the block, 5 does not."""
+    outs = {}
+    for amp in (5.0, 24.0):
+        out = tmp_path / f"a{amp:g}.parquet"
+        args = ["run", HOUSNER, "-e", "housner", "--set", f"excitation.amplitude={amp}", "--out", str(out)]
+        res = runner.invoke(app, args)
+        assert res.exit_code == 0, res.output
+        outs[amp] = Trajectory.load_parquet(out)
+    # the exact two-pivot threshold of this block is 5.638 m/s² (Makris & Roussos 2000; seed §4.1)
+    assert not outs[5.0].toppled and outs[24.0].toppled
+    # a table the scenario leaves at its defaults can be set too
+    out = tmp_path / "e.parquet"
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--set", "seed=3", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+
+
+def test_run_engine_settings_old_and_new_option(tmp_path: Path) -> None:
+    out = tmp_path / "t.parquet"
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--engine-set", "rtol=1e-8", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    assert Trajectory.load_parquet(out).settings["rtol"] == 1e-8
+    # backward compatibility: an engine setting given to --set is used, with a note
+    out2 = tmp_path / "t2.parquet"
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--set", "rtol=1e-9", "--out", str(out2)])
+    assert res.exit_code == 0, res.output
+    assert "--engine-set rtol" in res.output and Trajectory.load_parquet(out2).settings["rtol"] == 1e-9
+
+
+def test_run_never_overwrites_silently(tmp_path: Path) -> None:
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--out", str(folder)])
+    assert res.exit_code == 0, res.output
+    written = folder / "housner_halfsine.housner.parquet"
+    assert written.is_file()
+    before = written.stat().st_mtime_ns
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--out", str(folder)])
+    assert res.exit_code == 2 and "file exists" in res.output and "--overwrite" in res.output
+    assert written.stat().st_mtime_ns == before
+    res = runner.invoke(app, ["run", HOUSNER, "-e", "housner", "--out", str(written), "--overwrite"])
+    assert res.exit_code == 0, res.output
 
 
 def test_rock_command_on_a_synthetic_rock(tmp_path: Path) -> None:

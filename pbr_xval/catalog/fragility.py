@@ -19,7 +19,15 @@ from typing import Any
 import numpy as np
 from scipy import optimize, stats
 
-__all__ = ["FragilityFit", "SurfaceFit", "compare_medians", "fit_catalog", "fit_lognormal", "fit_surface"]
+__all__ = [
+    "FragilityFit",
+    "SurfaceFit",
+    "compare_medians",
+    "fit_catalog",
+    "fit_lognormal",
+    "fit_surface",
+    "profile_intervals",
+]
 
 _EPS = 1e-12
 
@@ -41,6 +49,10 @@ class FragilityFit:
     status: str = "ok"
     message: str = ""
     loglik: float = math.nan
+    #: profile-likelihood confidence intervals (see :func:`profile_intervals`); nan when not computed
+    theta_ci: tuple[float, float] = (math.nan, math.nan)
+    beta_ci: tuple[float, float] = (math.nan, math.nan)
+    ci_level: float = math.nan
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -76,8 +88,14 @@ def _nll(params: np.ndarray, lx: np.ndarray, n: np.ndarray, z: np.ndarray) -> fl
     return float(-(z * lp + (n - z) * lq).sum())
 
 
-def fit_lognormal(im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2) -> FragilityFit:
-    """Maximum-likelihood lognormal fragility from (IM value, toppled) pairs; IM > 0."""
+def fit_lognormal(
+    im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2, ci_level: float | None = None
+) -> FragilityFit:
+    """Maximum-likelihood lognormal fragility from (IM value, toppled) pairs; IM > 0.
+
+    ``ci_level`` (e.g. 0.95) adds profile-likelihood intervals for θ and β
+    (:func:`profile_intervals`) to a converged fit.
+    """
     x = np.asarray(im, float)
     t = np.asarray(toppled, bool)
     keep = np.isfinite(x) & (x > 0)
@@ -131,7 +149,66 @@ def fit_lognormal(im: Any, toppled: Any, im_name: str = "IM", min_runs: int = 2)
     fit.converged = bool(res.success or res2.success) and 1e-4 < fit.beta < 50
     if not fit.converged:
         fit.status, fit.message = "failed", f"optimiser did not converge ({best.message})"
+    elif ci_level is not None:
+        fit.theta_ci, fit.beta_ci = profile_intervals(fit, ci_level)
+        fit.ci_level = float(ci_level)
     return fit
+
+
+def _profile(lx: np.ndarray, n: np.ndarray, z: np.ndarray, which: int, value: float, start: float) -> float:
+    """Maximum log-likelihood with parameter ``which`` (0: ln θ, 1: ln β) held at ``value``."""
+
+    def f(other: float) -> float:
+        p = np.array([value, other]) if which == 0 else np.array([other, value])
+        return _nll(p, lx, n, z)
+
+    lo, hi = (start - 4.0, start + 4.0) if which == 0 else (math.log(1e-3), math.log(50.0))
+    r = optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
+    return -float(r.fun)
+
+
+def profile_intervals(
+    fit: FragilityFit, level: float = 0.95
+) -> tuple[tuple[float, float], tuple[float, float]]:
+    """Profile-likelihood confidence intervals of θ and β of a converged fit.
+
+    The interval of a parameter is where ``2 (ℓ_max − ℓ_profile) ≤ χ²₁(level)`` (3.84 at 95 %),
+    ℓ_profile maximising the binomial log-likelihood over the other parameter. An end that is not
+    reached within θ·e^±8 (β within [1e-3, 50]) is ±inf / the bound.
+
+    Returns
+    -------
+    ((θ_lo, θ_hi), (β_lo, β_hi)), θ in IM units.
+    """
+    if not (fit.converged and fit.status == "ok"):
+        return (math.nan, math.nan), (math.nan, math.nan)
+    lx = np.log(np.asarray(fit.levels, float))
+    n = np.asarray(fit.n_per_level, float)
+    z = np.asarray(fit.z_per_level, float)
+    crit = float(stats.chi2.ppf(level, 1)) / 2.0
+    mu0, lb0 = math.log(fit.theta), math.log(fit.beta)
+    lmax = -_nll(np.array([mu0, lb0]), lx, n, z)
+    out = []
+    for which, p0, span in ((0, mu0, 8.0), (1, lb0, 0.0)):
+        other0 = lb0 if which == 0 else mu0
+
+        def g(v: float, which: int = which, other0: float = other0) -> float:
+            return lmax - _profile(lx, n, z, which, v, other0) - crit
+
+        ends = []
+        for sign in (-1.0, 1.0):
+            if which == 0:
+                far = p0 + sign * span
+            else:
+                far = math.log(1e-3) if sign < 0 else math.log(50.0)
+            if g(far) < 0:
+                ends.append(far if which == 1 else sign * math.inf)
+                continue
+            ends.append(optimize.brentq(g, p0, far, xtol=1e-10) if far != p0 else p0)
+        out.append(
+            tuple(float(math.exp(e)) if math.isfinite(e) else (0.0 if e < 0 else math.inf) for e in ends)
+        )
+    return out[0], out[1]  # type: ignore[return-value]
 
 
 @dataclass

@@ -676,9 +676,64 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
             errors.append(
                 _fmt(where, key, err["msg"], err.get("input") if err["type"] != "missing" else None)
             )
+    else:
+        errors += _engine_errors(top, motions, where)
     if errors:
         raise CatalogError(errors)
     return Catalog(**top, source=str(source) if source else None, rocks=rocks, motions=motions)
+
+
+def _engine_errors(top: dict[str, Any], motions: list[dict[str, Any]], where: str) -> list[str]:
+    """Engines registered, settings in range (:mod:`pbr_xval.settings_spec`), run sizes bounded."""
+    from pbr_xval.engine import registered_names
+    from pbr_xval.settings_spec import check_sample_count, check_settings, check_step_count
+
+    known = registered_names()
+    expected = "one of " + ", ".join(known)
+    out: list[str] = []
+    for i, name in enumerate(top["engines"]):
+        if name not in known:
+            out.append(_fmt(where, f"engines[{i}]", "unknown engine", name, expected))
+    settings = top.get("settings") or {}
+    for name, table in settings.items():
+        if name not in known:
+            out.append(_fmt(where, f"settings.{name}", "unknown engine", name, expected))
+            continue
+        out += check_settings(name, table, complete=False, where=f"{where}: key 'settings.{name}'")
+    choose = top.get("choose")
+    if choose is not None:
+        for key in ("reference_engine", "fallback_engine"):
+            if getattr(choose, key) not in known:
+                out.append(_fmt(where, f"choose.{key}", "unknown engine", getattr(choose, key), expected))
+        for i, name in enumerate(choose.engines or []):
+            if name not in known:
+                out.append(_fmt(where, f"choose.engines[{i}]", "unknown engine", name, expected))
+        for i, dt in enumerate(choose.timesteps):
+            if not check_settings("", {"timestep": dt}) == []:
+                out.append(
+                    _fmt(where, f"choose.timesteps[{i}]", "not a time step", dt, "a number > 0 and ≤ 0.1 s")
+                )
+    if out:
+        return out
+    # run sizes: the longest run of the catalog
+    duration = top.get("duration", 5.0)
+    if duration == "auto":
+        duration = max((float(m.get("duration", 0.0)) for m in motions), default=0.0) + float(
+            top.get("tail", 3.0)
+        )
+    problem = check_sample_count(
+        float(duration), float(top.get("output_dt", 1e-2)), where=f"{where}: key 'output_dt'"
+    )
+    if problem:
+        out.append(problem)
+    for name in top["engines"]:
+        problem = check_step_count(
+            name, settings.get(name, {}), float(duration), float(top.get("settle_time", 0.5)),
+            where=f"{where}: key 'settings.{name}.timestep'",
+        )  # fmt: skip
+        if problem:
+            out.append(problem)
+    return out
 
 
 class _Top(_Strict):

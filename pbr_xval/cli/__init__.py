@@ -10,6 +10,7 @@ import sys
 # Importing a command group registers its commands; this order is the order of `pbr-xval --help`.
 from pbr_xval.cli import simulate  # noqa: F401  # isort: skip
 from pbr_xval.cli import rock, report, catalog  # noqa: F401  # isort: skip
+from pbr_xval.cli import hazard  # noqa: F401  # isort: skip
 from pbr_xval.cli._app import app
 
 __all__ = ["app", "main"]

@@ -8,6 +8,7 @@ from typing import Annotated, Any
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 app = typer.Typer(
     help="Cross-validate physics engines on precariously balanced rocks.",
@@ -39,12 +40,12 @@ def _load(path: Path):
     try:
         return load_scenario(path)
     except ScenarioError as exc:
-        err.print(f"[red]error:[/] {exc}")
+        err.print(f"[red]error:[/] {escape(str(exc))}", soft_wrap=True)
         raise typer.Exit(2) from None
 
 
 def _fail(msg: str, code: int = 2) -> typer.Exit:
-    err.print(f"[red]error:[/] {msg}")
+    err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True)  # one line, brackets kept
     return typer.Exit(code)
 
 

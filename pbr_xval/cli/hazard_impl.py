@@ -1,0 +1,162 @@
+"""Plain functions behind ``pbr-xval fragility`` and ``pbr-xval constrain``.
+
+Both return a process exit code: 0 success, 1 nothing usable came out, 2 invalid input.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+__all__ = ["constrain_command", "fragility_command"]
+
+
+def _console(console: Any) -> Any:
+    if console is not None:
+        return console
+    from rich.console import Console
+
+    return Console()
+
+
+def _error(con: Any, msg: str) -> int:
+    from rich.markup import escape
+
+    con.print("[red]error:[/red] " + escape(msg), highlight=False)
+    return 2
+
+
+def fragility_command(
+    results: Path,
+    catalog: Path | None,
+    periods: list[float],
+    engine: str | None = None,
+    ci: float = 0.95,
+    out: Path = Path("reports/fragility"),
+    console: Any = None,
+) -> int:
+    """Fit every rock of a sweep on PGA, PGV and SA(``periods``); write ``fits.csv``,
+    ``im_comparison.csv``, ``fragility.csv`` and NRML (continuous and discrete) into ``out``."""
+    from rich.markup import escape
+
+    from pbr_xval.atomic import write_text_atomic
+    from pbr_xval.catalog import CatalogError, load_catalog, load_results
+    from pbr_xval.hazard.fit import compare_ims, fit_sweep, sweep_intensity_measures
+    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
+
+    con = _console(console)
+    if not 0 < ci < 1:
+        return _error(con, f"--ci {ci!r}: expected a confidence level in (0, 1), e.g. 0.95")
+    if any(not (p > 0 and math.isfinite(p)) for p in periods):
+        return _error(con, f"--period {periods}: expected periods > 0 s")
+    if periods and catalog is None:
+        return _error(con, "--period needs --catalog (SA(T) is recomputed from the sweep's catalog)")
+    if not Path(results).is_dir():
+        return _error(con, f"{results}: results folder not found; expected a pbr-xval sweep output")
+    df = load_results(results)
+    if df is None or len(df) == 0:
+        return _error(con, f"{results}: no simulation rows; expected a finished (or partial) sweep")
+    if engine is not None:
+        df = df[df["engine"] == engine]
+        if len(df) == 0:
+            return _error(con, f"{results}: no runs of engine {engine!r}")
+    extra = None
+    ims = ["PGA", "PGV"]
+    if periods:
+        try:
+            cat = load_catalog(catalog)  # type: ignore[arg-type]
+        except CatalogError as exc:
+            return _error(con, str(exc))
+        extra = sweep_intensity_measures(cat, periods)
+        ims += [c for c in extra.columns if c.startswith("SA(")]
+    fits = fit_sweep(df, tuple(ims), extra, ci_level=ci)
+    cmp = compare_ims(fits)
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "fits.csv", fits.to_csv(index=False))
+    write_text_atomic(out / "im_comparison.csv", cmp.to_csv(index=False))
+    ok = fits[(fits["status"] == "ok") & (fits["im"] != "PGA|PGV/PGA")]
+    frags, rows = [], []
+    multi = ok["engine"].nunique() > 1 or ok["profile"].nunique() > 1 or ok["settings"].nunique() > 1
+    for r in ok.itertuples():
+        fid = f"{r.rock_id}__{r.im}" + (f"__{r.engine}" if multi else "")
+        frags.append(LognormalFragility(r.im, fid, theta=r.theta, beta=r.beta, theta_ci=(r.theta_lo, r.theta_hi),
+                                        beta_ci=(r.beta_lo, r.beta_hi)))  # fmt: skip
+        rows.append({"id": fid, "im": r.im, "theta": r.theta, "beta": r.beta, "theta_lo": r.theta_lo,
+                     "theta_hi": r.theta_hi, "beta_lo": r.beta_lo, "beta_hi": r.beta_hi, "ci_level": ci,
+                     "n_runs": r.n_runs, "n_toppled": r.n_toppled, "status": "ok", "source": f"{results} ({r.engine})"})  # fmt: skip
+    if frags:
+        write_fragility_csv(out / "fragility.csv", rows)
+        write_fragility_model(out / "fragility.xml", frags, "continuous")
+        write_fragility_model(out / "fragility_discrete.xml", frags, "discrete")
+    for r in fits.itertuples():
+        if r.status == "ok":
+            ci_txt = (f"  θ ∈ [{r.theta_lo:.4g}, {r.theta_hi:.4g}], β ∈ [{r.beta_lo:.3g}, {r.beta_hi:.3g}]"
+                      if r.theta_lo == r.theta_lo else f"  b = {r.coef}, LR p = {r.lr_p:.3g}")  # fmt: skip
+            con.print(escape(f"{r.engine} {r.rock_id} {r.im}: θ = {r.theta:.4g} {r.unit}, β = {r.beta:.3g}{ci_txt}"),
+                      highlight=False)  # fmt: skip
+        else:
+            con.print(escape(f"{r.engine} {r.rock_id} {r.im}: {r.status} — {r.message}"), highlight=False)
+    for r in cmp.itertuples():
+        con.print(escape(f"{r.engine} {r.rock_id}: IMs by dispersion: {r.ranking}"), highlight=False)
+    con.print(f"written: {out}/fits.csv, im_comparison.csv" + (", fragility.csv, fragility.xml, fragility_discrete.xml" if frags else ""),
+              highlight=False)  # fmt: skip
+    return 0 if frags else 1
+
+
+def constrain_command(
+    config: Path | None,
+    out: Path = Path("reports/constrain"),
+    example: bool = False,
+    joint: str | None = None,
+    rate: float | None = None,
+    console: Any = None,
+) -> int:
+    """Run a constrain file (or the synthetic example) and write the report into ``out``."""
+    from rich.markup import escape
+
+    from pbr_xval.hazard.config import load_config
+    from pbr_xval.hazard.ims import G, HazardInputError
+    from pbr_xval.hazard.report import write_report
+    from pbr_xval.hazard.survival import constrain
+
+    con = _console(console)
+    if example:
+        from pbr_xval.hazard.example import write_example
+
+        if config is not None:
+            return _error(con, "give either CONFIG or --example, not both")
+        config = write_example(out)
+        con.print(f"synthetic inputs written to {config.parent}", highlight=False)
+    if config is None:
+        return _error(con, "no constrain file; give CONFIG (TOML) or --example")
+    if joint is not None and joint not in ("independent", "shared-events"):
+        return _error(con, f"--joint {joint!r}: expected 'independent' or 'shared-events'")
+    if rate is not None and not (rate > 0 and math.isfinite(rate)):
+        return _error(con, f"--rate {rate!r}: expected an annual rate > 0 (1/yr)")
+    try:
+        cfg = load_config(config)
+        res = constrain(
+            cfg.branches, cfg.rocks, joint or cfg.joint, rate or cfg.rate_of_interest, cfg.quantiles
+        )
+    except HazardInputError as exc:
+        return _error(con, str(exc))
+    sources = sorted({c.source for c in cfg.branches if c.source})
+    notes = list(cfg.notes) + sorted({n for c in cfg.branches for n in c.notes})
+    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources])
+    s = res.summary
+    k = 0.01 if res.im == "PGV" else G
+    u = "cm/s" if res.im == "PGV" else "g"
+    con.print(escape(f"{cfg.name}: {len(cfg.branches)} branches, {len(cfg.rocks)} rocks, joint = {res.joint_mode}"),
+              highlight=False)  # fmt: skip
+    for rid, p in s["rock_survival"].items():
+        con.print(f"  P_s({rid}) = {p:.3g} (prior mean)", highlight=False)
+    con.print(f"  P(all survive) = {s['prior_joint_survival']:.3g} (prior mean)", highlight=False)
+    con.print(escape(f"  at λ = {s['rate_of_interest']:g}/yr: mean-curve {res.im} {s['mean_im_before'] / k:.3g} → "
+                     f"{s['mean_im_after'] / k:.3g} {u} ({100 * s['mean_im_change']:+.1f} %); 5–95 % range "
+                     f"{s['im05_before'] / k:.3g}–{s['im95_before'] / k:.3g} → {s['im05_after'] / k:.3g}–"
+                     f"{s['im95_after'] / k:.3g} {u} (width × {s['range_ratio']:.3g})"), highlight=False)  # fmt: skip
+    con.print(f"report: {page}", highlight=False)
+    return 0

@@ -1,0 +1,391 @@
+"""Survival of precarious rocks under a site's hazard, and the hazard it constrains.
+
+Assumptions (stated in ``docs/hazard.md`` and in every report):
+
+* **Poisson occurrence** — earthquakes whose IM at the site exceeds x arrive as a Poisson process of
+  rate λ(x) (the hazard curve), stationary over the rock's exposure time T.
+* **Fragility per event** — an event of intensity x topples the rock with probability P_f(x),
+  independently of earlier events (no damage accumulation), with P_f measured for *this site's*
+  rock on *its own pedestal* and the hazard computed for the same site condition.
+* The rate of toppling events is then ``ν = ∫ P_f(x) |dλ(x)|`` (1/yr), the thinned Poisson
+  process, and the rock survives T years with probability ``exp(−ν T)``. With an uncertain
+  exposure age (e.g. a ¹⁰Be age ± σ) ``P_s = E_T[exp(−ν T)]``.
+* **Several rocks** — ``joint="independent"`` (the default, as in the literature that reweights
+  hazard models with several PBRs): rocks survive independently given the hazard,
+  ``P = Π_r P_s,r``. ``joint="shared-events"``: the same earthquakes shake every rock of the site
+  (one IM per event), toppling conditionally independent given that IM; a rock exposed over the
+  most recent T_r years sees the events of that window. This gives a larger joint survival than
+  the product (events that topple two rocks are counted once), i.e. a weaker constraint.
+
+Integration: ``ν = P_f(x₁) λ(x₁) + ∫_{x₁}^{∞} λ(x) dP_f(x)`` (by parts from the lowest level x₁ of
+the curve; the rate below x₁ is unknown and taken to topple nothing). For a lognormal fragility
+the integral is taken over the fragility's density in z = ln(x/θ)/β (Simpson, 4001 points on
+z ∈ [z₁, 9]); for a step at im*, ν = λ(im*); otherwise a Stieltjes sum on 4000 log-spaced points
+refined at the fragility's breakpoints.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import integrate, stats
+
+from pbr_xval.hazard.curves import HazardCurve
+from pbr_xval.hazard.fragility import Fragility, LognormalFragility, StepFragility, UnionFragility
+from pbr_xval.hazard.ims import HazardInputError
+
+__all__ = [
+    "Age",
+    "Constraint",
+    "RockInput",
+    "branches_from_quantiles",
+    "constrain",
+    "joint_survival",
+    "survival_probability",
+    "toppling_rate",
+    "weighted_quantile",
+]
+
+_Z_MAX = 9.0
+_N = 4001
+
+
+@dataclass(frozen=True)
+class Age:
+    """Exposure age of a rock, years: ``mean`` ± ``sd``; ``dist`` ``normal`` (truncated at 0),
+    ``lognormal`` (mean and sd of T itself, not of ln T) or ``fixed``."""
+
+    mean: float
+    sd: float = 0.0
+    dist: str = "normal"
+
+    def __post_init__(self) -> None:
+        if not (self.mean > 0 and math.isfinite(self.mean)):
+            raise HazardInputError(f"age mean {self.mean!r} yr; expected > 0")
+        if not (self.sd >= 0 and math.isfinite(self.sd)):
+            raise HazardInputError(f"age sd {self.sd!r} yr; expected ≥ 0")
+        if self.dist not in ("normal", "lognormal", "fixed"):
+            raise HazardInputError(f"age dist {self.dist!r}; expected normal, lognormal or fixed")
+
+    @property
+    def _fixed(self) -> bool:
+        return self.dist == "fixed" or self.sd == 0.0
+
+    def expect_exp(self, nu: float) -> float:
+        """E_T[exp(−ν T)] for ν ≥ 0 (1/yr): closed form for the truncated normal, Gauss–Hermite
+        (96 nodes in ln T) for the lognormal."""
+        if nu < 0:
+            raise ValueError(f"rate ν = {nu!r}; expected ≥ 0")
+        if self._fixed:
+            return math.exp(-nu * self.mean)
+        m, s = self.mean, self.sd
+        if self.dist == "normal":
+            lg = (
+                -nu * m
+                + 0.5 * (nu * s) ** 2
+                + stats.norm.logcdf((m - nu * s * s) / s)
+                - stats.norm.logcdf(m / s)
+            )
+            return float(math.exp(lg))
+        s2 = math.log1p((s / m) ** 2)
+        mu, sl = math.log(m) - s2 / 2.0, math.sqrt(s2)
+        z, w = np.polynomial.hermite_e.hermegauss(96)
+        return float(np.sum(w * np.exp(-nu * np.exp(mu + sl * z))) / math.sqrt(2.0 * math.pi))
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """n ages (yr) drawn from the distribution (the normal truncated at 0 by rejection)."""
+        if self._fixed:
+            return np.full(n, self.mean)
+        if self.dist == "lognormal":
+            s2 = math.log1p((self.sd / self.mean) ** 2)
+            return np.exp(rng.normal(math.log(self.mean) - s2 / 2, math.sqrt(s2), n))
+        a = (0.0 - self.mean) / self.sd
+        return stats.truncnorm.rvs(a, np.inf, loc=self.mean, scale=self.sd, size=n, random_state=rng)
+
+
+def toppling_rate(fragility: Fragility, curve: HazardCurve) -> float:
+    """Annual rate of toppling events ν = ∫ P_f(x) |dλ(x)| (1/yr).
+
+    Parameters
+    ----------
+    fragility : Fragility
+        On the same IM as ``curve`` (SI units).
+    curve : HazardCurve
+
+    Returns
+    -------
+    float, 1/yr
+    """
+    if fragility.im != curve.im:
+        raise HazardInputError(
+            f"fragility {fragility.id!r} is on {fragility.im}, hazard curve {curve.name!r} on {curve.im}; expected one IM"
+        )
+    x1 = float(curve.levels[0])
+    xn = float(curve.levels[-1])
+    cut = curve.tail == "cut" or curve._last_positive < curve.levels.size - 1
+    base = float(fragility.probability(x1)) * float(curve.rates[0])
+    if isinstance(fragility, StepFragility):
+        s = fragility.im_star
+        if s <= x1:
+            return float(curve.rates[0])
+        if cut and s > xn:
+            return 0.0
+        return float(curve.rate(s)[0])
+    if isinstance(fragility, LognormalFragility):
+        th, b = fragility.theta, fragility.beta
+        z1 = math.log(x1 / th) / b
+        z2 = min(_Z_MAX, math.log(xn / th) / b) if cut else _Z_MAX
+        if z2 <= z1:
+            return base
+        z = np.linspace(z1, z2, _N)
+        lam = curve.rate(th * np.exp(b * z))
+        if cut:
+            lam = np.where(z <= math.log(xn / th) / b, lam, 0.0)
+        return base + float(integrate.simpson(lam * stats.norm.pdf(z), x=z))
+    # generic: Stieltjes sum ∫ λ dP_f on a log grid refined at breakpoints
+    _lo, hi = fragility.support()
+    top = xn if cut else max(xn, hi if math.isfinite(hi) else xn) * math.e
+    if top <= x1:
+        return base
+    bp = fragility.breakpoints()
+    bp = bp[(bp > x1) & (bp < top)]
+    grid = np.unique(np.r_[np.geomspace(x1, top, _N - 1), bp, bp * (1 - 1e-9)])
+    p = fragility.probability(grid)
+    lam = curve.rate(grid)
+    if cut:
+        lam = np.where(grid <= xn, lam, 0.0)
+    return base + float(np.sum(0.5 * (lam[1:] + lam[:-1]) * np.diff(p)))
+
+
+def survival_probability(fragility: Fragility, curve: HazardCurve, age: Age | float) -> float:
+    """P_s = E_T[exp(−T ∫ P_f |dλ|)] — probability that the rock is still standing after its
+    exposure age (``age`` in years, or an :class:`Age`)."""
+    a = age if isinstance(age, Age) else Age(float(age), 0.0, "fixed")
+    return a.expect_exp(toppling_rate(fragility, curve))
+
+
+def joint_survival(
+    fragilities: list[Fragility],
+    curve: HazardCurve,
+    ages: list[Age],
+    joint: str = "independent",
+    n_samples: int = 20000,
+    seed: int = 0,
+    _cache: dict[Any, float] | None = None,
+) -> float:
+    """Probability that every rock of a site survived (see the module docstring for ``joint``).
+
+    ``shared-events`` averages over the ages by Monte Carlo (``n_samples``, common random numbers
+    through ``seed``; exact when every age is fixed).
+    """
+    if len(fragilities) != len(ages):
+        raise ValueError("one age per fragility")
+    if joint == "independent":
+        return float(
+            np.prod([a.expect_exp(toppling_rate(f, curve)) for f, a in zip(fragilities, ages, strict=True)])
+        )
+    if joint != "shared-events":
+        raise HazardInputError(f"joint {joint!r}; expected 'independent' or 'shared-events'")
+    cache = {} if _cache is None else _cache
+
+    def nu_of(members: tuple[int, ...]) -> float:
+        if members not in cache:
+            f = fragilities[members[0]] if len(members) == 1 else UnionFragility(
+                fragilities[0].im, "union", [fragilities[i] for i in members])  # fmt: skip
+            cache[members] = toppling_rate(f, curve)
+        return cache[members]
+
+    n = len(fragilities)
+    fixed = all(a._fixed for a in ages)
+    rng = np.random.default_rng(seed)
+    T = np.column_stack([a.sample(rng, 1 if fixed else n_samples) for a in ages])  # (s, n)
+    order = np.argsort(T, axis=1)
+    total = np.zeros(T.shape[0])
+    prev = np.zeros(T.shape[0])
+    # on (t_(k-1), t_(k)] the exposed rocks are those with age ≥ t_(k): order[:, k:]
+    for k in range(n):
+        tk = np.take_along_axis(T, order[:, k : k + 1], axis=1)[:, 0]
+        exposed = np.sort(order[:, k:], axis=1)
+        keys, inv = np.unique(exposed, axis=0, return_inverse=True)
+        nus = np.array([nu_of(tuple(int(i) for i in row)) for row in keys])
+        total += (tk - prev) * nus[inv.ravel()]
+        prev = tk
+    return float(np.mean(np.exp(-total)))
+
+
+def weighted_quantile(values: Any, weights: Any, q: float) -> np.ndarray:
+    """Weighted quantile across branches, OpenQuake's convention: sort the values at each level,
+    accumulate the (normalised) weights, interpolate ``q`` linearly in the cumulative weights.
+
+    values : (b, m) float; weights : (b,) float ≥ 0 → (m,) float
+    """
+    v = np.asarray(values, float)
+    w = np.asarray(weights, float)
+    w = w / w.sum()
+    idx = np.argsort(v, axis=0)
+    sv = np.take_along_axis(v, idx, axis=0)
+    cw = np.cumsum(w[idx], axis=0)
+    return np.array([np.interp(q, cw[:, j], sv[:, j]) for j in range(v.shape[1])])
+
+
+def branches_from_quantiles(curves: list[HazardCurve], quantiles: list[float]) -> list[HazardCurve]:
+    """Fractile curves as discrete branches: weight of fractile q_i = the interval between the
+    midpoints to its neighbours (0 and 1 at the ends). An approximation of the distribution that
+    the fractiles describe; state it when you use it."""
+    q = np.asarray(quantiles, float)
+    if q.size != len(curves) or q.size == 0 or np.any(np.diff(q) <= 0) or q[0] <= 0 or q[-1] >= 1:
+        raise HazardInputError(f"quantiles {q.tolist()}; expected increasing values in (0, 1), one per curve")
+    b = np.r_[0.0, 0.5 * (q[1:] + q[:-1]), 1.0]
+    out = []
+    for c, qi, wi in zip(curves, q, np.diff(b), strict=True):
+        out.append(
+            HazardCurve(
+                c.im, c.levels, c.rates, f"quantile-{qi:g}", float(wi), c.tail, c.source, list(c.notes)
+            )
+        )
+    return out
+
+
+@dataclass
+class RockInput:
+    """A rock of the site: its fragility (on the hazard's IM) and exposure age."""
+
+    id: str
+    fragility: Fragility
+    age: Age
+
+
+@dataclass
+class Constraint:
+    """Result of :func:`constrain`. Shapes: b branches, r rocks, m grid levels."""
+
+    im: str
+    grid: np.ndarray  # (m,) SI
+    branch_names: list[str]
+    prior: np.ndarray  # (b,)
+    posterior: np.ndarray  # (b,)
+    rates: np.ndarray  # (b, m) 1/yr
+    nu: np.ndarray  # (b, r) 1/yr
+    survival: np.ndarray  # (b, r)
+    joint: np.ndarray  # (b,)
+    rock_ids: list[str]
+    joint_mode: str
+    quantiles: tuple[float, ...]
+    rate_of_interest: float
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    def mean(self, after: bool = False) -> np.ndarray:
+        """Weighted mean hazard curve on :attr:`grid` (1/yr)."""
+        w = self.posterior if after else self.prior
+        return (w[:, None] * self.rates).sum(axis=0) / w.sum()
+
+    def quantile(self, q: float, after: bool = False) -> np.ndarray:
+        """Weighted fractile hazard curve on :attr:`grid` (1/yr)."""
+        return weighted_quantile(self.rates, self.posterior if after else self.prior, q)
+
+    def im_at_rate(self, rates_on_grid: np.ndarray, rate: float) -> float:
+        """IM (SI) where a curve on :attr:`grid` crosses ``rate`` (log-log interpolation); nan if not."""
+        r = np.asarray(rates_on_grid, float)
+        ok = r > 0
+        if not ok.any() or rate > r[ok].max() or rate < r[ok].min():
+            return math.nan
+        return float(np.exp(np.interp(math.log(rate), np.log(r[ok])[::-1], np.log(self.grid[ok])[::-1])))
+
+
+def _grid(branches: list[HazardCurve], n: int = 200) -> np.ndarray:
+    lo = max(float(c.levels[0]) for c in branches)
+    hi = min(float(c.levels[-1]) for c in branches)
+    if not hi > lo:
+        raise HazardInputError("hazard branches share no IM range; expected overlapping levels")
+    nodes = np.concatenate([c.levels for c in branches])
+    return np.unique(np.r_[np.geomspace(lo, hi, n), nodes[(nodes >= lo) & (nodes <= hi)]])
+
+
+def constrain(
+    branches: list[HazardCurve],
+    rocks: list[RockInput],
+    joint: str = "independent",
+    rate_of_interest: float = 1e-4,
+    quantiles: tuple[float, ...] = (0.05, 0.5, 0.95),
+    n_samples: int = 20000,
+    seed: int = 0,
+) -> Constraint:
+    """Reweight hazard branches by the likelihood that every rock survived.
+
+    ``w'_b ∝ w_b · P(all rocks survived | branch b)``; the constrained mean and fractile curves are
+    the weighted mean and fractiles of the branches with w'. ``summary`` gives, at
+    ``rate_of_interest`` (1/yr), the IM of the mean curve and the 5–95 % range of the branches'
+    IMs (weighted fractiles), before and after.
+    """
+    if not branches:
+        raise HazardInputError("no hazard branches; expected at least one curve")
+    if not rocks:
+        raise HazardInputError("no rocks; expected at least one rock with a fragility and an age")
+    im = branches[0].im
+    for c in branches:
+        if c.im != im:
+            raise HazardInputError(f"hazard branch {c.name!r} is on {c.im}, others on {im}; expected one IM")
+    for r in rocks:
+        if r.fragility.im != im:
+            raise HazardInputError(
+                f"rock {r.id!r}: fragility on {r.fragility.im}, hazard on {im}; expected the same IM"
+            )
+    w = np.array([c.weight for c in branches], float)
+    if not w.sum() > 0:
+        raise HazardInputError("hazard branch weights sum to 0; expected positive weights")
+    w = w / w.sum()
+    nu = np.array([[toppling_rate(r.fragility, c) for r in rocks] for c in branches])
+    surv = np.array([[r.age.expect_exp(v) for r, v in zip(rocks, row, strict=True)] for row in nu])
+    if joint == "independent":
+        jnt = surv.prod(axis=1)
+    else:
+        jnt = np.array([
+            joint_survival([r.fragility for r in rocks], c, [r.age for r in rocks], joint, n_samples, seed)
+            for c in branches
+        ])  # fmt: skip
+    if not (w * jnt).sum() > 0:
+        raise HazardInputError(
+            "every branch gives the rocks a survival probability of 0; the data contradict the hazard model"
+        )
+    post = w * jnt / (w * jnt).sum()
+    grid = _grid(branches)
+    rates = np.array([c.rate(grid) for c in branches])
+    out = Constraint(im, grid, [c.name for c in branches], w, post, rates, nu, surv, jnt, [r.id for r in rocks],
+                     joint, tuple(quantiles), float(rate_of_interest))  # fmt: skip
+    out.summary = _summary(out, branches)
+    return out
+
+
+def _summary(c: Constraint, branches: list[HazardCurve]) -> dict[str, Any]:
+    r = c.rate_of_interest
+    ims = np.array([b.im_at_rate(r) for b in branches])
+    ok = np.isfinite(ims)
+    s: dict[str, Any] = {
+        "rate_of_interest": r,
+        "branches_reaching_rate": int(ok.sum()),
+        "n_branches": len(branches),
+    }
+    for tag, after in (("before", False), ("after", True)):
+        w = c.posterior if after else c.prior
+        s[f"mean_im_{tag}"] = c.im_at_rate(c.mean(after), r)
+        if ok.any():
+            q05 = float(weighted_quantile(ims[ok][:, None], w[ok], 0.05)[0])
+            q95 = float(weighted_quantile(ims[ok][:, None], w[ok], 0.95)[0])
+        else:
+            q05 = q95 = math.nan
+        s[f"im05_{tag}"], s[f"im95_{tag}"] = q05, q95
+        s[f"range_{tag}"] = q95 - q05
+    s["mean_im_change"] = s["mean_im_after"] / s["mean_im_before"] - 1.0
+    s["range_ratio"] = s["range_after"] / s["range_before"] if s["range_before"] > 0 else math.nan
+    # mean annual rate of exceeding the prior mean-curve IM at the rate of interest, after
+    x0 = s["mean_im_before"]
+    if math.isfinite(x0):
+        s["mean_rate_after_at_that_im"] = float(
+            np.exp(np.interp(math.log(x0), np.log(c.grid), np.log(np.maximum(c.mean(True), 1e-300))))
+        )
+    s["prior_joint_survival"] = float((c.prior * c.joint).sum())
+    s["rock_survival"] = {rid: float((c.prior * c.survival[:, i]).sum()) for i, rid in enumerate(c.rock_ids)}
+    return s
