@@ -5,6 +5,7 @@ Both return a process exit code: 0 success, 1 some chunks failed / no recommenda
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +16,12 @@ def escape(text: str) -> str:
     from rich.markup import escape as _escape
 
     return _escape(text)
+
+
+def _error(con: Any, msg: str) -> None:
+    """``error: <msg>``, one line per line of ``msg`` (never wrapped at the terminal width)."""
+    for line in msg.splitlines():
+        con.print("[red]error:[/red] " + escape(line), highlight=False, soft_wrap=True)
 
 
 def _console(console: Any) -> Any:
@@ -43,19 +50,41 @@ def sweep_command(
     pool, ``workers`` processes), ``dask`` (LocalCluster of ``workers``, or ``scheduler``
     address) or ``inline``. Rerunning resumes: finished chunks are skipped.
     """
+    from pbr_xval.atomic import clean_stale_temporaries
     from pbr_xval.catalog import CatalogError, format_summary, load_catalog, run_sweep
     from pbr_xval.catalog.tasks import parse_shard
+    from pbr_xval.engine import registered_names
 
     con = _console(console)
     try:
         cat = load_catalog(catalog)
         parse_shard(shard)
     except (CatalogError, ValueError) as exc:
-        con.print("[red]error:[/red] " + escape(str(exc)), highlight=False)
+        _error(con, str(exc))
         return 2
+    problems = []
     if executor not in ("local", "dask", "inline"):
-        con.print(f"[red]error:[/red] executor {executor!r}: expected 'local', 'dask' or 'inline'")
+        problems.append(f"--executor {executor!r}: expected 'local', 'dask' or 'inline'")
+    known = registered_names()
+    problems += [
+        f"--engine {e!r}: unknown engine; expected one of {', '.join(known)}"
+        for e in engines or []
+        if e not in known
+    ]
+    if workers is not None and workers < 1:
+        problems.append(f"--workers {workers}: expected at least 1 worker process")
+    if chunk_size < 0:
+        problems.append(f"--chunk-size {chunk_size}: expected motions per chunk ≥ 1 (0: the catalog's)")
+    if out.exists() and not out.is_dir():
+        problems.append(
+            f"results store {out}: is a file; expected a folder (a new one, or an earlier store to resume)"
+        )
+    if problems:
+        for p in problems:
+            _error(con, p)
         return 2
+    if out.is_dir():
+        clean_stale_temporaries(out, recursive=True)  # chunk files of killed sweeps
     n_sims = len(cat.rocks) * len(cat.motions) * len(engines or cat.engines)
     con.print(
         f"catalog {cat.name!r}: {len(cat.rocks)} rocks × {len(cat.motions)} motions × "
@@ -83,10 +112,13 @@ def choose_command(catalog: Path, budget: float, out: Path, console: Any = None)
     try:
         cat = load_catalog(catalog)
     except CatalogError as exc:
-        con.print("[red]error:[/red] " + escape(str(exc)), highlight=False)
+        _error(con, str(exc))
         return 2
-    if not budget > 0:
-        con.print(f"[red]error:[/red] budget {budget!r}: expected a positive fraction, e.g. 0.05")
+    if not budget > 0 or not math.isfinite(budget):
+        _error(con, f"--budget {budget!r}: expected a positive fraction, e.g. 0.05 or 5%")
+        return 2
+    if out.exists() and not out.is_dir():
+        _error(con, f"--out {out}: is a file; expected a folder for choose.md and choose.json")
         return 2
     result = choose(cat, budget, out, console=con)
     md, js = write_choice(result, out)
