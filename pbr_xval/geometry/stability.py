@@ -39,6 +39,7 @@ __all__ = [
     "hull_vertices",
     "ray_lever",
     "rest_margin",
+    "support_lever",
     "support_points",
     "support_polygon",
     "uplift_lever",
@@ -135,11 +136,11 @@ def ray_lever(polygon: np.ndarray, point: np.ndarray, direction: np.ndarray) -> 
     return float(np.min(s[ahead] / nd[ahead]))
 
 
-def uplift_lever(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
-    """(b, h): lever of the support edge toward ``direction`` and COM height, m.
+def support_lever(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
+    """(b_s, h): support lever max over the support of (p − c)·d, and the COM height, m.
 
-    The rock tips toward ``direction`` when the pedestal accelerates the other way with
-    |a| > g·b/h.
+    The lowest contact when the rock is turned about the horizontal axis ⟂ ``direction``; equal
+    to the ray lever along the normals of the support polygon's edges, larger in between.
     """
     d = np.asarray(direction, dtype=float)
     d = d / np.linalg.norm(d)
@@ -147,6 +148,22 @@ def uplift_lever(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -
     b = float(np.max((sp - com) @ d))
     h = float(com[2] - sp[:, 2].min())
     return b, h
+
+
+def uplift_lever(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
+    """(b, h): uplift lever toward ``direction`` and COM height, m.
+
+    The rock tips toward ``direction`` when the pedestal accelerates the other way with
+    |a| > g·b/h. ``b`` is the ray lever ρ (the distance from the COM's vertical to the edge of
+    the support polygon along ``direction``; module docstring); when the support is a point or
+    a segment (no polygon: e.g. an extruded curved base on its line of contact) it falls back
+    to the support lever.
+    """
+    b_s, h = support_lever(vertices, com, direction)
+    hv = hull_vertices(vertices)
+    c = np.asarray(com, dtype=float)
+    rho = ray_lever(support_polygon(hv), c[:2], np.asarray(direction, dtype=float))
+    return (rho if np.isfinite(rho) else b_s), h
 
 
 def critical_tilt(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> float:
@@ -202,7 +219,7 @@ class StabilityTable:
         (:func:`critical_tilt`; NaN when the pose is not at rest).
     uplift_angle : (n_directions,) rad — α_u(φ) = atan(ρ(φ)/h_G), ρ the ray lever
         (:func:`ray_lever`; NaN when the pose is not at rest).
-    lever : (n_directions,) m — support levers b_s(φ) (:func:`uplift_lever`).
+    lever : (n_directions,) m — support levers b_s(φ) (:func:`support_lever`).
     ray : (n_directions,) m — ray levers ρ(φ).
     polygon : (q, 2) m — the support polygon; margin : m — :func:`rest_margin` of the COM.
     com_height : m.
@@ -214,7 +231,7 @@ class StabilityTable:
         com = np.asarray(com, dtype=float)
         dirs = np.column_stack([np.cos(self.phi), np.sin(self.phi), np.zeros_like(self.phi)])
         self.alpha = np.array([critical_tilt(hv, com, d) for d in dirs])
-        levers = np.array([uplift_lever(hv, com, d) for d in dirs])
+        levers = np.array([support_lever(hv, com, d) for d in dirs])
         self.lever = levers[:, 0]
         self.com_height = float(levers[0, 1])
         self.polygon = support_polygon(hv)

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from pbr_xval.geometry.stability import hull_vertices, uplift_lever
+from pbr_xval.geometry.stability import hull_vertices, support_lever
 
 __all__ = ["simulate_scan", "synthetic_rock", "write_point_cloud"]
 
@@ -79,7 +79,7 @@ def _min_alpha(mesh: trimesh.Trimesh, n: int = 36) -> float:
     hv = hull_vertices(mesh.vertices)
     ang = []
     for phi in np.linspace(0, 2 * np.pi, n, endpoint=False):
-        b, h = uplift_lever(hv, com, np.array([np.cos(phi), np.sin(phi), 0.0]))
+        b, h = support_lever(hv, com, np.array([np.cos(phi), np.sin(phi), 0.0]))
         ang.append(np.arctan2(b, h))
     return float(np.degrees(min(ang)))
 

@@ -357,3 +357,26 @@ def test_deprecated_orientation_key_reads_as_pose(tmp_path):
     from pbr_xval.scene import compile_scene
 
     compile_scene(scn)  # a synthetic rock rests in its own pose
+
+
+def test_uplift_acceleration_of_a_box_shaken_obliquely_is_the_ray_lever():
+    """Shaken along 20° from its x face, a box 0.4 × 0.6 × 1.2 m uplifts when the effective-gravity
+    line through its COM leaves the base through the x edge: a = g·bx/(h·cos 20°) — not the corner
+    lever g·(bx cos 20° + by sin 20°)/h (20 % higher), which would overstate the lower bound."""
+    from pbr_xval.scenario import scenario_from_dict
+    from pbr_xval.scene import compile_scene
+
+    bx, by, hz = 0.2, 0.3, 0.6
+    scn = scenario_from_dict(
+        {
+            "name": "b",
+            "duration": 1.0,
+            "rock": {"shape": "box", "half_extents": [bx, by, hz], "density": 2400.0},
+            "excitation": {"type": "one_sine", "amplitude": 3.0, "frequency": 1.0, "azimuth_deg": 20.0},
+        }
+    )
+    scene = compile_scene(scn)
+    c = math.cos(math.radians(20.0))
+    assert scene.uplift_accel(1.0) == pytest.approx(9.81 * bx / (hz * c), rel=1e-12)
+    assert scene.uplift_accel(-1.0) == pytest.approx(9.81 * bx / (hz * c), rel=1e-12)
+    assert scene.rock.stability.shaking_bound(math.radians(20.0), 9.81) == pytest.approx(9.81 * bx / (hz * c))
