@@ -228,6 +228,18 @@ def synthetic_mesh_file(rock: dict[str, Any]) -> str:
 def scenario_dict(spec: ChunkSpec, motion: dict[str, Any], mu: float, seed: int) -> dict[str, Any]:
     r = spec.rock
     shape = r["shape"]
+    if shape == "scenario":  # a whole scenario (pbr-xval validate): only motion, name, duration, seed change
+        d = json.loads(json.dumps(r["scenario"]))
+        exc = {**motion["excitation"], "path": motion["path"]}
+        exc.setdefault("azimuth_deg", d.get("excitation", {}).get("azimuth_deg", 0.0))
+        dur = (
+            float(motion.get("duration", 0.0)) + spec.tail
+            if spec.duration == "auto"
+            else float(spec.duration)
+        )
+        name = re.sub(r"[^A-Za-z0-9_.\-]", "_", f"{r['id']}__{motion['id']}")
+        d.update(name=name, duration=dur, seed=int(seed), excitation=exc)
+        return d
     mass = {"density": r["density"]} if r.get("density") is not None else {"mass": r["mass"]}
     if shape == "synthetic":
         rock = {"shape": "mesh", "path": synthetic_mesh_file(r), **mass}

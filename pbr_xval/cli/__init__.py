@@ -11,6 +11,7 @@ import sys
 from pbr_xval.cli import simulate  # noqa: F401  # isort: skip
 from pbr_xval.cli import rock, report, catalog  # noqa: F401  # isort: skip
 from pbr_xval.cli import hazard  # noqa: F401  # isort: skip
+from pbr_xval.cli import validate  # noqa: F401  # isort: skip
 from pbr_xval.cli._app import app
 
 __all__ = ["app", "main"]

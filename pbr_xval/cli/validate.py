@@ -1,0 +1,64 @@
+"""``pbr-xval validate``: predictions scored against shake-table experiments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from pbr_xval.cli._app import SetOpt, app, console
+
+
+@app.command()
+def validate(
+    campaign: Annotated[
+        Path,
+        typer.Argument(
+            help="campaign: a directory with experiments.csv + table_motions.npz, or a CSV "
+            "(test, motion_file, units, toppled[, dt, motion, specimen])"
+        ),
+    ],
+    specimen: Annotated[int, typer.Option(help="specimen number (column toppled_specimen<N>)")] = 1,
+    scenario: Annotated[
+        Path | None,
+        typer.Option(help="scenario of the specimen (its excitation is replaced by each test's motion)"),
+    ] = None,
+    engine: Annotated[list[str] | None, typer.Option("--engine", "-e", help="engines (repeatable)")] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="report folder (default reports/validate_<scenario>/)")
+    ] = None,
+    tests: Annotated[
+        str | None, typer.Option(help="comma-separated test identifiers to run (default: all)")
+    ] = None,
+    limit: Annotated[int | None, typer.Option(help="run only the first N tests (after --tests)")] = None,
+    folds: Annotated[int, typer.Option(help="folds of the record-grouped cross-validation of the rules")] = 4,
+    highpass: Annotated[
+        float, typer.Option(help="baseline correction: high-pass corner, Hz (0: none)")
+    ] = 0.3,
+    lowpass: Annotated[float, typer.Option(help="baseline correction: low-pass corner, Hz (0: none)")] = 25.0,
+    detrend: Annotated[str, typer.Option(help="baseline correction: linear | constant | none")] = "linear",
+    resample: Annotated[
+        float, typer.Option(help="resample corrected records to this rate, Hz (0: keep)")
+    ] = 200.0,
+    tail: Annotated[float, typer.Option(help="simulated time after each motion ends, s")] = 3.0,
+    workers: Annotated[int, typer.Option(help="worker processes")] = 2,
+    chunk_size: Annotated[
+        int,
+        typer.Option(help="tests per chunk (the unit of resumption; 1 lets any subset reuse stored runs)"),
+    ] = 1,
+    baseline_source: Annotated[
+        str, typer.Option(help="intensity measures of the rules: auto | sheet | record")
+    ] = "auto",
+    set_: SetOpt = None,
+) -> None:
+    """Run every test of a shake-table campaign on each engine; F1 and the empirical baselines; CSV + HTML."""
+    from pbr_xval.cli.validate_impl import validate_command
+
+    code = validate_command(
+        campaign, specimen=specimen, scenario=scenario, engines=engine or [], out=out, tests=tests,
+        limit=limit, folds=folds, highpass=highpass, lowpass=lowpass, detrend=detrend, resample=resample, tail=tail,
+        workers=workers, chunk_size=chunk_size, baseline_source=baseline_source, sets=set_, console=console,
+    )  # fmt: skip
+    if code:
+        raise typer.Exit(code)
