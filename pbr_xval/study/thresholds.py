@@ -24,6 +24,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
@@ -235,8 +236,8 @@ def run(
         rows.append(
             {
                 "engine": name,
-                "status": "ok" if mn is not None else "never_toppled",
-                "message": "" if mn is not None else f"no toppling in [{lo:.6g}, {hi:.6g}]",
+                "status": "ok" if mn is not None else res.status,
+                "message": "" if mn is not None else res.message(),
                 "profile": str(res.settings.get("profile", "")),
                 "param": config.param,
                 _col("minimum", unit): _nan(mn),
@@ -244,6 +245,7 @@ def run(
                 if not (res.grid_toppled.size and res.grid_toppled[0])
                 else 0.0,
                 "n_bands": len(bands),
+                "resolution": res.resolution,
                 "n_simulations": res.n_simulations,
                 "wall_s": res.wall_time,
                 "rel_error_vs_reference": (mn / config.reference - 1.0)
@@ -265,9 +267,9 @@ def run(
                 {
                     "engine": name,
                     "band": i,
-                    _col("band_start", unit): b.start,
+                    _col("band_start", unit): _nan(b.start),
                     _col("band_end", unit): _nan(b.end),
-                    _col("start_tol", unit): b.start_tol,
+                    _col("start_tol", unit): _nan(b.start_tol),
                     _col("end_tol", unit): _nan(b.end_tol),
                 }
             )
@@ -285,12 +287,31 @@ def run(
         ],
     )
     figs = [_figure(table, bands_df, config, unit, ref_used, ref_min, lo, hi)]
+    tables = {"thresholds": table, "bands": bands_df}
+    try:  # the rock and its contact patch: what was tested
+        from pbr_xval.report.figures import rock_figure
+        from pbr_xval.scene import compile_scene
+
+        rfig, rdata = rock_figure(compile_scene(scenario), scenario.name)
+        tables["rock_contact"] = rdata
+        figs.append(
+            Figure(
+                name="rock",
+                figure=rfig,
+                table="rock_contact",
+                caption="The rock at rest: side view and plan view on equal axes; red: the contact "
+                "patch (support polygon), +: centre of mass.",
+            )
+        )
+    except Exception as exc:  # a picture must never sink the study
+        notes.append(f"rock picture not drawn: {type(exc).__name__}: {exc}")
 
     summary = [
         f"**Thresholds** of `{config.param}` on `{scenario.name}` (scan {lo:.6g}–{hi:.6g}, "
         f"rel. tol {config.rel_tol:g})",
         "",
-        f"| engine | minimum | ± | bands | sims | vs reference | vs {ref_used or '—'} | wall s |",
+        f"| engine | minimum [{_units.unit(config.param)}] | ± | bands | sims | vs reference | "
+        f"vs {ref_used or '—'} | wall s |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -313,7 +334,7 @@ def run(
     return StudyResult(
         kind="thresholds",
         title=f"Toppling thresholds: {config.param} — {scenario.name}",
-        tables={"thresholds": table, "bands": bands_df},
+        tables=tables,
         figures=figs,
         summary=summary,
         headline={n: (None if r.minimum is None else float(r.minimum)) for n, r in results.items()},
@@ -349,59 +370,76 @@ def _figure(
     lo: float,
     hi: float,
 ) -> Figure:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import numpy as np
 
-    ok = table[np.isfinite(table[_col("minimum", unit)])]
+    from pbr_xval.report.style import axis_label, engine_colour, subplots
+
+    mcol, tcol = _col("minimum", unit), _col("tolerance", unit)
+    ok = table[np.isfinite(table[mcol])]
     multi = bool((table["n_bands"] > 1).any())
     ncols = 2 if multi else 1
-    fig, axes = plt.subplots(1, ncols, figsize=(5.5 * ncols + 1, 4.0), squeeze=False)
+    fig, axes = subplots(1, ncols, figsize=(6.0 * ncols, 3.6), squeeze=False)
     ax = axes[0, 0]
-    x = np.arange(len(ok))
-    ax.errorbar(
-        x,
-        ok[_col("minimum", unit)],
-        yerr=ok[_col("tolerance", unit)].fillna(0.0),
-        fmt="o",
-        capsize=5,
-        color="C0",
-        label="minimum toppling value",
-    )
+    y = np.arange(len(ok))[::-1]
+    for yi, (_, r) in zip(y, ok.iterrows(), strict=True):
+        ax.errorbar(
+            r[mcol],
+            yi,
+            xerr=0.0 if not np.isfinite(r[tcol]) else r[tcol],
+            fmt="o",
+            capsize=5,
+            ms=6,
+            color=engine_colour(r["engine"]),
+        )
+    drawn = ["dots: each engine's minimum toppling value, bars: ± its bisection bracket"]
     if cfg.reference is not None:
-        ax.axhline(cfg.reference, color="k", lw=1, label=f"reference {cfg.reference:g}")
-    if ref_min is not None:
-        ax.axhline(ref_min, color="C3", lw=1, ls="--", label=f"{ref_used} {ref_min:.6g}")
-    ax.set_xticks(x, list(ok["engine"]), rotation=30, ha="right")
-    ax.set_ylabel(f"{cfg.param} [{unit.replace('_', '/')}]" if unit else cfg.param)
-    ax.set_title("minimum toppling value")
-    ax.legend(fontsize=8)
+        ax.axvline(cfg.reference, color="k", lw=1.2, ls="-", label=f"reference {cfg.reference:g}")
+        drawn.append(f"solid line: the reference value {cfg.reference:g} {_units.unit(cfg.param)}")
+    if ref_min is not None and ref_used is not None:
+        ax.axvline(ref_min, color="0.45", lw=1.2, ls="--", label=f"{ref_used} {ref_min:.6g}")
+        drawn.append(f"dashed line: the {ref_used} engine's threshold on the same scenario")
+    ax.set_yticks(y, list(ok["engine"]))
+    ax.set_xlabel(axis_label(cfg.param, unit.replace("_", "/")))
+    ax.set_title("minimum toppling value per engine")
+    if len(ok):
+        span = float(ok[mcol].max() - ok[mcol].min())
+        refs = [v for v in (cfg.reference, ref_min) if v is not None]
+        err = ok[tcol].fillna(0.0)
+        lo_x = min([float((ok[mcol] - err).min()), *refs])
+        hi_x = max([float((ok[mcol] + err).max()), *refs])
+        pad = max(span, hi_x - lo_x, 1e-3 * abs(hi_x)) * 0.08
+        ax.set_xlim(lo_x - pad, hi_x + pad)
+    ax.set_ylim(-0.6, len(ok) - 0.4)
+    ax.ticklabel_format(axis="x", style="plain", useOffset=False)
+    if cfg.reference is not None or ref_min is not None:
+        ax.legend(loc="best", fontsize=8, framealpha=0.9)
     if multi:
         ax2 = axes[0, 1]
-        names = list(table["engine"])
+        names = list(table["engine"])[::-1]  # top to bottom in table order, as on the left
         for i, name in enumerate(names):
             sub = bands[bands["engine"] == name]
             for _, b in sub.iterrows():
                 end = b[_col("band_end", unit)]
                 end = hi if not np.isfinite(end) else end
-                ax2.plot([b[_col("band_start", unit)], end], [i, i], lw=8, color="C1", solid_capstyle="butt")
+                start = b[_col("band_start", unit)]
+                start = lo if not np.isfinite(start) else start
+                ax2.plot(
+                    [start, end],
+                    [i, i],
+                    lw=8,
+                    color=engine_colour(name),
+                    solid_capstyle="butt",
+                )
         ax2.set_yticks(range(len(names)), names)
         ax2.set_xlim(lo, hi)
-        ax2.set_xscale("log")
-        ax2.set_xlabel(cfg.param)
-        ax2.set_title("toppling bands (scanned range)")
+        ax2.set_xlabel(axis_label(cfg.param, unit.replace("_", "/")))
+        ax2.set_title("toppling bands in the scanned range")
         if cfg.reference is not None:
             ax2.axvline(cfg.reference, color="k", lw=1)
-    fig.tight_layout()
+        drawn.append("right: every toppling band found in the scanned range")
     return Figure(
         name="thresholds",
         figure=fig,
         table="thresholds",
-        caption=(
-            f"Minimum toppling value of {cfg.param} per engine (error bars: ± bisection tolerance); "
-            "solid line: reference value, dashed: analytical reference engine"
-            + ("; right: every toppling band found in the scanned range." if multi else ".")
-        ),
+        caption=f"Minimum toppling value of {_units.label(cfg.param)} per engine. " + "; ".join(drawn) + ".",
     )
