@@ -751,6 +751,12 @@ def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
         text = path.read_text()
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a scenario TOML file"
+        ) from None
+    if not text.strip():
+        raise ScenarioError(f"{path}: empty file; expected a scenario TOML (name, duration, [rock], [excitation])")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -540,6 +540,12 @@ def load_catalog(path: str | Path) -> Catalog:
         text = path.read_text()
     except OSError as exc:
         raise CatalogError([f"{path}: cannot read catalog file ({exc.strerror})"]) from None
+    except UnicodeDecodeError as exc:
+        raise CatalogError(
+            [f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a catalog TOML file"]
+        ) from None
+    if not text.strip():
+        raise CatalogError([f"{path}: empty file; expected a catalog TOML ([[rock]] tables and [motions])"])
     if path.suffix.lower() == ".csv":  # a bare rock list: no motions
         raise CatalogError(
             [

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from pbr_xval.cli._app import ProfileOpt, _fraction, app, console
+from pbr_xval.cli._app import ProfileOpt, _fail, _fraction, app, console
 
 
 @app.command()
@@ -47,6 +47,10 @@ def choose(
     """Recommend the cheapest engine and settings within an accuracy budget; project the catalog's cost."""
     from pbr_xval.cli.catalog_impl import choose_command
 
-    code = choose_command(catalog, _fraction(budget), out, console)
+    try:
+        fraction = _fraction(budget)
+    except typer.BadParameter as exc:
+        raise _fail(f"--budget: {exc}") from None
+    code = choose_command(catalog, fraction, out, console)
     if code:
         raise typer.Exit(code)

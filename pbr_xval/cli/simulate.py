@@ -106,9 +106,13 @@ def run(
         eng = get_engine(engine)
     except EngineNotAvailable as exc:
         raise _fail(str(exc)) from None
-    settings = _parse_sets(engine_set)
+    try:
+        settings = _parse_sets(engine_set)
+        scenario_sets = _parse_sets(set_)
+    except typer.BadParameter as exc:
+        raise _fail(str(exc)) from None
     engine_keys = set(eng.default_settings())
-    for key, value in _parse_sets(set_).items():
+    for key, value in scenario_sets.items():
         try:
             scn = scn.with_value(key, value)
         except ScenarioError as exc:
