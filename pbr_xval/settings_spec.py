@@ -187,6 +187,9 @@ SPECS: dict[str, dict[str, Spec]] = {
         "max_nodes": _int(3, 100_000),
         "ground_motion": GROUND,
         "rest_velocity": _nonneg("m/s"),
+        "compiled": BOOL,
+        "support_hull": BOOL,
+        "side_nodes": BOOL,
     },
     "mujoco": {
         "timestep": TIMESTEP,
