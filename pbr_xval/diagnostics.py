@@ -30,8 +30,9 @@ Slid
     rocking (PyBullet, 0.19 % of b on the Housner block at 5.6 m/s², see the docs).
 Jumped
     the lowest hull point was more than δ above the pedestal top (the base plane at rest) at
-    one sample or more: the rock lost all contact. A flight lasts from the sample crossing of
-    that height through 0 (the pedestal top) to its return below 0 (linear interpolation);
+    one sample or more: the rock lost all contact. A flight lasts while the lowest point is
+    more than ``10⁻⁴ b`` above the pedestal top (crossings linearly interpolated; closer counts
+    as contact: the reference solver holds resting contacts up to its band ε = 10⁻⁵ m above);
     ``flights`` counts them, ``airborne_s`` sums them (s), ``airborne_max_s`` is the longest.
     Flights that never rise δ above the pedestal between two samples are not seen.
 At rest
@@ -92,6 +93,8 @@ __all__ = [
 DEFINITION = "pbr_xval.diagnostics/1 (docs/diagnostics.md)"
 #: uplift/contact tolerance floor as a fraction of the lever b (rigid models: p_max = 0)
 UPLIFT_REL = 1e-3
+#: a flight lasts while the lowest point is this fraction of b above the pedestal top
+AIR_FLOOR_REL = 1e-4
 #: slip tolerance as a fraction of the lever b
 SLIP_REL = 1e-2
 #: at rest: kinetic energy below this fraction of the toppling barrier ΔU
@@ -275,28 +278,41 @@ def impact_times(t: np.ndarray, theta: np.ndarray, tol: float) -> np.ndarray:
 
     Returns
     -------
-    (m,) float, s — for each landing, the last θ = 0 crossing before it (linear
-    interpolation), or the first sample back within tol/2 when θ did not change sign.
+    (m,) float, s — for each landing, the θ = 0 crossing (linear interpolation) between the
+    landing sample and the one before it, or after it while |θ| stays within tol; the landing
+    sample's time when the rock came back without crossing.
     """
     t = np.asarray(t, dtype=float)
     th = np.asarray(theta, dtype=float)
+    n = th.size
     out: list[float] = []
     side = 0
-    last_cross = math.nan
-    for i in range(th.size):
+    i = 0
+    while i < n:
         x = th[i]
-        if i and (x > 0) != (th[i - 1] > 0) and x != th[i - 1]:
-            a, b = th[i - 1], x
-            last_cross = float(t[i - 1] + (a / (a - b)) * (t[i] - t[i - 1]))
         if side == 0:
             if abs(x) > tol:
                 side = 1 if x > 0 else -1
-                last_cross = math.nan
+            i += 1
             continue
-        if side * x <= 0.5 * tol:
-            out.append(last_cross if math.isfinite(last_cross) else float(t[i]))
-            side = -side if side * x < -tol else 0
-            last_cross = math.nan
+        if side * x > 0.5 * tol:
+            i += 1
+            continue
+        # landed at sample i: the θ = 0 crossing between samples i − 1 and i, or later while
+        # |θ| stays within tol (else the rock came back to the band without crossing: t[i])
+        t_hit = float(t[i])
+        j = max(i, 1)
+        while j < n:
+            a, b = th[j - 1], th[j]
+            if side * a > 0 >= side * b:
+                t_hit = float(t[j - 1] + (a / (a - b)) * (t[j] - t[j - 1]))
+                break
+            if abs(b) > tol:
+                break
+            j += 1
+        out.append(t_hit)
+        side = -side if side * x < -tol else 0
+        i += 1
     return np.asarray(out, dtype=float)
 
 
@@ -387,7 +403,7 @@ def standard_diagnostics(traj: Trajectory, scene: Scene) -> dict[str, Any]:
 
     low, slip, spread = _points_z_and_xy(sc, com, rot)
     gap = low - sc.base_z
-    flights = _flights(t[:n_ev], gap[:n_ev], tol)
+    flights = _flights(t[:n_ev], gap[:n_ev], tol, AIR_FLOOR_REL * sc.lever)
     air = np.zeros(n_ev, dtype=bool)
     for a, b, _, _ in flights:
         air[a:b] = True
@@ -478,16 +494,17 @@ def _kinetic_at(
     return float(_kinetic(sc, rot[:1], v[None, :], w[None, :])[0])
 
 
-def _flights(t: np.ndarray, gap: np.ndarray, tol: float) -> list[tuple[int, int, float, float]]:
-    """Flights: maximal runs of samples [a, b) with ``gap`` > 0 (m) that reach ``gap`` > ``tol``,
-    with their start and end times (s), linearly interpolated at gap = 0."""
+def _flights(t: np.ndarray, gap: np.ndarray, tol: float, floor: float) -> list[tuple[int, int, float, float]]:
+    """Flights: maximal runs of samples [a, b) with ``gap`` > ``floor`` (m) that reach ``gap`` >
+    ``tol``, with their start and end times (s), linearly interpolated at gap = ``floor``."""
+    gap = gap - floor
     pos = gap > 0.0
     if not pos.any():
         return []
     edges = np.diff(np.concatenate([[0], pos.astype(np.int8), [0]]))
     out = []
     for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0], strict=True):
-        if not np.any(gap[a:b] > tol):
+        if not np.any(gap[a:b] > tol - floor):
             continue
         t0 = float(t[a])
         if a > 0:
