@@ -89,86 +89,122 @@ def log_progress(
 
 @contextlib.contextmanager
 def quiet_native_stdout(console: Any) -> Iterator[None]:
-    """Keep native writes to fd 1 (engine banners, also from worker processes) off the console.
+    """Keep native start-up banners (engine libraries, also in worker processes) off the console.
 
-    While active, fd 1 is a pipe: lines matching :data:`BANNERS` are dropped, any other line is
-    re-printed through ``console`` (above a progress bar); the console itself writes to a copy of
-    the original fd 1. Does nothing when the console does not write to the process's fd 1.
+    PyBullet writes ``pybullet build time: ...`` straight to fd 2 when it is imported (in this
+    process and in every worker), which breaks a progress bar. While active, fds 1 and 2 are
+    pipes read by a thread each: lines matching :data:`BANNERS` are dropped; any other line goes
+    through ``console.print`` (above the bar) when the console is a terminal, else unchanged to
+    the original stream. The console itself writes to a copy of its original fd. Does nothing
+    for streams that are not the process's fds 1 and 2 (e.g. under pytest's capture).
     """
-    try:
-        stdout_fd = sys.stdout.fileno()
-        cfile = console.file
-        direct = stdout_fd == 1 and cfile in (sys.stdout, sys.__stdout__)
-    except (AttributeError, OSError, ValueError):
-        direct = False
-    if not direct:
+    streams = []
+    for fd, stream in ((1, sys.stdout), (2, sys.stderr)):
+        try:
+            if stream.fileno() == fd:
+                streams.append((fd, stream))
+        except (AttributeError, OSError, ValueError):
+            pass
+    if not streams:
         yield
         return
-    sys.stdout.flush()
-    saved = os.dup(1)
-    r, w = os.pipe()
-    os.dup2(w, 1)
-    os.close(w)
-    own = os.fdopen(os.dup(saved), "w", buffering=1, encoding=getattr(cfile, "encoding", None) or "utf-8")
-    console.file = own
+    try:
+        cfile = console.file
+        cfd = cfile.fileno() if cfile in (sys.stdout, sys.stderr, sys.__stdout__, sys.__stderr__) else None
+    except (AttributeError, OSError, ValueError):
+        cfd = None
+    original = getattr(console, "_file", None)
+    live = bool(console.is_terminal)
+    saved: dict[int, int] = {}
+    threads: list[threading.Thread] = []
+    own = None
 
-    def pump() -> None:
+    def pump(r: int, out_fd: int) -> None:
         with os.fdopen(r, "rb") as f:
             for raw in f:
                 line = raw.decode("utf-8", "replace").rstrip("\n")
                 if any(b.search(line) for b in BANNERS):
                     continue
                 with contextlib.suppress(Exception):
-                    console.print(line, markup=False, highlight=False, soft_wrap=True)
+                    if live:
+                        console.print(line, markup=False, highlight=False, soft_wrap=True)
+                    else:
+                        os.write(out_fd, raw)
 
-    th = threading.Thread(target=pump, name="pbr-xval-stdout", daemon=True)
-    th.start()
+    for fd, stream in streams:
+        stream.flush()
+        saved[fd] = os.dup(fd)
+        r, w = os.pipe()
+        os.dup2(w, fd)
+        os.close(w)
+        th = threading.Thread(target=pump, args=(r, saved[fd]), name=f"pbr-xval-fd{fd}", daemon=True)
+        th.start()
+        threads.append(th)
+    if cfd in saved:
+        own = os.fdopen(
+            os.dup(saved[cfd]), "w", buffering=1, encoding=getattr(cfile, "encoding", None) or "utf-8"
+        )
+        console.file = own
     try:
         yield
     finally:
-        with contextlib.suppress(Exception):
-            sys.stdout.flush()
-        os.dup2(saved, 1)  # closes the pipe's write end held as fd 1
-        os.close(saved)
-        th.join(timeout=2.0)
-        console.file = cfile
-        own.close()
+        for _, stream in streams:
+            with contextlib.suppress(Exception):
+                stream.flush()
+        with contextlib.suppress(Exception):  # C stdio buffers of native code
+            import ctypes
+
+            ctypes.CDLL(None).fflush(None)
+        for fd, s in saved.items():
+            os.dup2(s, fd)  # closes the pipe's write end held as fd: the pumps see EOF
+        for th in threads:
+            th.join(timeout=2.0)
+        for s in saved.values():
+            os.close(s)
+        if own is not None:
+            console.file = original
+            own.close()
 
 
-def verdict_table(verdict: Any, title: str) -> Any:
-    """The verdict as a rich table: one row per case × engine, with the numbers."""
+def verdict_table(verdict: Any, title: str = "Verdict") -> list[Any]:
+    """The verdict as rich tables, one per case (titled with the case and its reference), with the numbers."""
     from rich.markup import escape
     from rich.table import Table
 
     colours = {"pass": "green", "attention": "yellow", "failed": "red", "reference": "cyan"}
-    t = Table(title=title, title_justify="left")
-    for col, just in (
-        ("case", "left"),
-        ("engine", "left"),
-        ("value", "right"),
-        ("deviation", "right"),
-        ("tolerance", "right"),
-        ("verdict", "left"),
-        ("sims", "right"),
-        ("wall s", "right"),
-    ):
-        t.add_column(col, justify=just, overflow="fold")  # type: ignore[arg-type]
-    last = None
-    for r in verdict.rows():
-        c = colours.get(r["status"], "dim")
-        t.add_row(
-            escape(r["case"]) if r["case"] != last else "",
-            escape(r["engine"]),
-            escape(r["value_text"]),
-            escape(r["deviation_text"]),
-            "" if r["tolerance"] is None else f"±{100 * r['tolerance']:.2f} %",
-            f"[{c}]{r['status']}[/]",
-            "" if r["n_sims"] is None else str(r["n_sims"]),
-            "" if r["wall_s"] is None else f"{r['wall_s']:.1f}",
-            end_section=False,
+    out = []
+    for case in verdict.cases:
+        t = Table(
+            title=f"{title}: {escape(case.title)}",
+            caption=escape(f"vs {case.reference_text}; tolerance {case.tolerance_text}"),
+            title_justify="left",
+            caption_justify="left",
         )
-        last = r["case"]
-    return t
+        for col, just in (
+            ("engine", "left"),
+            ("value", "right"),
+            ("deviation", "right"),
+            ("tolerance", "right"),
+            ("verdict", "left"),
+            ("sims", "right"),
+            ("wall s", "right"),
+        ):
+            t.add_column(col, justify=just)  # type: ignore[arg-type]
+        for eng in verdict.engines:
+            c = verdict.cell(eng, case.key)
+            if c is None:
+                continue
+            t.add_row(
+                escape(eng),
+                escape(c.value_text),
+                escape(c.deviation_text),
+                "" if c.tolerance is None else f"±{100 * c.tolerance:.2f} %",
+                f"[{colours.get(c.status, 'dim')}]{c.status}[/]",
+                "" if c.n_sims is None else str(c.n_sims),
+                "" if c.wall_s is None else f"{c.wall_s:.1f}",
+            )
+        out.append(t)
+    return out
 
 
 def report_command(
@@ -248,8 +284,8 @@ def report_command(
         table.add_row(escape(r.title), status, f"{r.wall_time:.1f}")
     con.print(table)
     verdict = build_verdict(results)
-    if verdict.cases:
-        con.print(verdict_table(verdict, "Verdict"))
+    for t in verdict_table(verdict):
+        con.print(t)
     for h in verdict.headlines:
         con.print(f"  {_plain(h)}", markup=False, highlight=False)
     for f in verdict.findings:

@@ -24,7 +24,12 @@ __all__ = [
     "axis_label",
     "engine_colour",
     "engine_style",
+    "figure",
+    "fmt_g",
+    "fmt_pct",
+    "log_ticks",
     "plt",
+    "rc",
     "subplots",
     "unit_suffix_to_text",
 ]
@@ -87,6 +92,18 @@ def subplots(*args: Any, **kwargs: Any) -> tuple[Any, Any]:
     return fig, axes
 
 
+def rc() -> Any:
+    """Context manager applying :data:`RC` (wrap figures built axis by axis, e.g. with gridspec)."""
+    return plt().rc_context(RC)
+
+
+def figure(**kwargs: Any) -> Any:
+    """An empty figure in the report style (constrained layout); add axes inside :func:`rc`."""
+    kwargs.setdefault("layout", "constrained")
+    with rc():
+        return plt().figure(**kwargs)
+
+
 def _restyle(fig: Any) -> None:
     """Apply the axes-level parts of :data:`RC` (rc_context only lasts while the axes are created)."""
     for ax in fig.get_axes():
@@ -108,6 +125,25 @@ def engine_style(name: str, reference: str | None = None) -> dict[str, Any]:
     if name == reference or (reference is None and name in _ANALYTICAL):
         return {"color": "k", "lw": 2.2, "ls": "-", "zorder": 2}
     return {"color": engine_colour(name), "lw": 1.3, "ls": "--", "zorder": 3}
+
+
+def fmt_g(v: float, _pos: Any = None) -> str:
+    """Tick label ``0.2``, ``5``, ``100`` (a picklable FuncFormatter target)."""
+    return f"{v:g}"
+
+
+def fmt_pct(v: float, _pos: Any = None) -> str:
+    """Tick label of a fraction as percent: ``0.001`` → ``0.1 %``."""
+    return f"{100 * v:g} %"
+
+
+def log_ticks(axis: Any, *, percent: bool = False) -> None:
+    """Labels on the 1-2-5 ticks of a log axis only (minor labels overlapped within a decade)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(fmt_pct if percent else fmt_g))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def axis_label(key: str, fallback_unit: str = "") -> str:

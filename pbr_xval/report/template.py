@@ -20,7 +20,7 @@ table { border-collapse: collapse; margin: .4em 0 .8em; font-size: .86em; max-wi
 th, td { border: 1px solid #ccc; padding: .2em .5em; text-align: right; vertical-align: top; }
 th { background: #f1f1f1; }
 td.text, th.text { text-align: left; }
-.run { display: grid; grid-template-columns: minmax(0, 2fr) minmax(0, 3fr); gap: 0 2em; font-size: .86em; }
+.run { display: grid; grid-template-columns: minmax(0, 3fr) minmax(0, 2fr); gap: 0 2em; font-size: .86em; }
 .run > div { min-width: 0; }
 .run h3 { margin: .3em 0 .1em; font-size: 1em; }
 .run ul { margin: 0; padding-left: 1.1em; }
@@ -54,6 +54,8 @@ summary { cursor: pointer; }
 code { background: #f3f3f3; padding: 0 .2em; }
 .small { font-size: .85em; color: #555; }
 nav { font-size: .9em; }
+.more { display: flex; flex-wrap: wrap; gap: 0 2em; font-size: .85em; }
+.more details[open] { flex-basis: 100%; }
 nav a { margin-right: 1em; }
 </style>
 </head>
@@ -117,12 +119,8 @@ nav a { margin-right: 1em; }
 </figure>
 {% endfor %}
 </div>{% endif %}
-{% if s.tables %}<p class="small">Tables: {% for t in s.tables %}<a href="{{ t.csv }}">{{ t.name }}</a> ({{ t.rows }} rows{% if t.parquet %}, <a href="{{ t.parquet }}">Parquet</a>{% endif %}){% if not loop.last %} · {% endif %}{% endfor %}</p>{% endif %}
-{% for t in s.inline_tables %}
-<details><summary>{{ t.name }} ({{ t.rows }} rows{% if t.truncated %}, first {{ t.shown }} shown{% endif %})</summary>
-{{ t.html }}
-</details>
-{% endfor %}
+{% if s.tables %}<p class="small">Data: {% for t in s.tables %}<a href="{{ t.csv }}">{{ t.name }}</a> ({{ t.rows }} rows{% if t.parquet %}, <a href="{{ t.parquet }}">Parquet</a>{% endif %}){% if not loop.last %} · {% endif %}{% endfor %}</p>{% endif %}
+<div class="more">
 {% if s.notes %}
 <details class="notes"><summary>Notes ({{ s.notes|length }})</summary>
 <ul>
@@ -139,6 +137,7 @@ nav a { margin-right: 1em; }
 <details><summary>Study provenance</summary>
 <pre>{{ s.provenance_json }}</pre>
 </details>
+</div>
 </section>
 {% endfor %}
 
@@ -177,7 +176,7 @@ nav a { margin-right: 1em; }
 <details><summary>Full provenance (JSON)</summary>
 <pre>{{ prov_json }}</pre>
 </details>
-<p class="small">Machine-readable files: <a href="provenance.json">provenance.json</a>, <a href="summary.md">summary.md</a>{% if verdict.cases %}, <a href="verdict.csv">verdict.csv</a>{% endif %}{% for p in parquet_files %}, <a href="{{ p }}">{{ p }}</a>{% endfor %}.</p>
+<p class="small">Machine-readable files: <a href="provenance.json">provenance.json</a>, <a href="summary.md">summary.md</a>{% if verdict.cases %}, <a href="verdict.csv">verdict.csv</a>{% endif %}; every table as CSV and Parquet (<code>data/</code>, provenance in the schema metadata), linked in its section.</p>
 </section>
 </body>
 </html>

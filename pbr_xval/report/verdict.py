@@ -344,6 +344,8 @@ def _fragility_cases(r: StudyResult, idx: int, anchor: str, v: Verdict) -> None:
         return
     p = r.provenance if isinstance(r.provenance, Mapping) else {}
     ref = p.get("reference_engine")
+    if not ref:  # nothing to compare the maps with
+        return
     label = _scenario_label(r)
     cfg = p.get("config") or {}
     axes = " × ".join(units.label(str(cfg.get(k, k)), with_unit=False) for k in ("x", "y"))
@@ -357,7 +359,7 @@ def _fragility_cases(r: StudyResult, idx: int, anchor: str, v: Verdict) -> None:
             title=f"{label}: fragility map {axes}{vtxt}" if label else f"fragility map {axes}{vtxt}",
             quantity="fragility",
             unit="",
-            reference_text=f"{ref} map (analytical)" if ref else "no reference map",
+            reference_text=f"{ref} map ({'analytical' if ref in ANALYTICAL else 'engine'})",
             tolerance_text=f"≤ {TOL_FRAGILITY_CELLS:.0%} of cells disagree on toppling",
             anchor=anchor,
         )

@@ -49,7 +49,6 @@ if TYPE_CHECKING:
 
 __all__ = ["atomic_write_bytes", "atomic_write_text", "base_provenance", "write_report"]
 
-MAX_HTML_ROWS = 60
 #: figures wider than this (px) take the full width of the page; narrower ones sit two per row
 WIDE_PX = 760
 
@@ -180,37 +179,6 @@ def _summary_blocks(summary: Iterable[str]) -> tuple[list[Any], list[Any]]:
                 items.append(md_inline(t))
     flush()
     return items, tables
-
-
-def _table_html(df: pd.DataFrame, max_rows: int = MAX_HTML_ROWS) -> tuple[Any, bool, int]:
-    import pandas as pd
-    from markupsafe import Markup
-
-    shown = df.head(max_rows)
-    numeric = {
-        c: pd.api.types.is_numeric_dtype(df[c]) and not pd.api.types.is_bool_dtype(df[c]) for c in df.columns
-    }
-    out = ['<table class="data">', "<thead><tr>"]
-    for c in df.columns:
-        cls = "" if numeric[c] else ' class="text"'
-        out.append(f"<th{cls}>{html.escape(str(c))}</th>")
-    out.append("</tr></thead>")
-    out.append("<tbody>")
-    for row in shown.itertuples(index=False, name=None):
-        out.append("<tr>")
-        for c, v in zip(df.columns, row, strict=True):
-            cls = "" if numeric[c] else ' class="text"'
-            text = _fmt(v)
-            if len(text) > 80:  # long JSON (settings, versions): folded, full text kept
-                out.append(
-                    f"<td{cls}><details><summary>{html.escape(text[:40])}…</summary>"
-                    f"<pre>{html.escape(text)}</pre></details></td>"
-                )
-            else:
-                out.append(f"<td{cls}>{html.escape(text)}</td>")
-        out.append("</tr>")
-    out.append("</tbody></table>")
-    return Markup("".join(out)), len(df) > max_rows, len(shown)
 
 
 def _png_data_uri(fig: Any, dpi: int = 100) -> tuple[str, int, int]:
@@ -462,7 +430,6 @@ def write_report(
                 "provenance_json": _dumps({k: v for k, v in rprov.items() if k != "traceback"}),
                 "figures": [],
                 "tables": [],
-                "inline_tables": [],
             }
             items, mtables = _summary_blocks(r.summary)
             sec["summary_html"], sec["summary_tables"] = items, mtables
@@ -484,13 +451,9 @@ def write_report(
                     sec["notes"].append(md_inline(f"table {tname!r} could not be written as Parquet: {exc}"))
                     pq_name = ""
                 table_files[tname] = {"csv": csv, "parquet": pq_name}
-                body, truncated, shown = _table_html(df)
-                sec["inline_tables"].append(
+                sec["tables"].append(
                     {
                         "name": tname,
-                        "html": body,
-                        "truncated": truncated,
-                        "shown": shown,
                         "rows": len(df),
                         "csv": csv,
                         "parquet": pq_name,

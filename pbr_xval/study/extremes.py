@@ -644,11 +644,9 @@ def _not_applicable(c: Case, eng: Any) -> str:
 
 
 def _figure(df: Any, cases: list[str], engines: list[str]) -> Figure:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
+
+    from pbr_xval.report.style import subplots
 
     cls_index = {c: i for i, c in enumerate(CLASSES)}
     grid = np.full((len(cases), len(engines)), np.nan)
@@ -659,7 +657,8 @@ def _figure(df: Any, cases: list[str], engines: list[str]) -> Figure:
             grid[i, j] = cls_index.get(r["class"], cls_index["failed"])
             labels[i][j] = str(r["class"]).replace("not_applicable", "n/a")
     cmap = ListedColormap([CLASS_COLOURS[c] for c in CLASSES])
-    fig, ax = plt.subplots(figsize=(1.6 + 1.4 * len(engines), 0.9 + 0.38 * len(cases)))
+    fig, ax = subplots(figsize=(1.6 + 1.4 * len(engines), 0.9 + 0.38 * len(cases)))
+    ax.grid(False)
     ax.imshow(np.ma.masked_invalid(grid), cmap=cmap, vmin=-0.5, vmax=len(CLASSES) - 0.5, aspect="auto")
     for i in range(len(cases)):
         for j in range(len(engines)):
@@ -669,7 +668,6 @@ def _figure(df: Any, cases: list[str], engines: list[str]) -> Figure:
     ax.set_xticks(range(len(engines)), engines)
     ax.set_yticks(range(len(cases)), cases)
     ax.xaxis.tick_top()
-    fig.tight_layout()
     return Figure(
         "extremes_matrix",
         fig,

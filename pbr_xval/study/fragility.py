@@ -26,6 +26,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from pbr_xval import units as _units
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
 
@@ -247,9 +248,43 @@ def run(
 
     agreement = _agreement(cells, ref, [_variant_label(v) for v in variants], order)
     figs = [_figure(cells, agreement, config, [_variant_label(v) for v in variants], run_engines, ref)]
+    tables = {"fragility_cells": cells, "fragility_agreement": agreement}
+    fit_lines: list[str] = []
+    try:  # probability of toppling over the x intensity measure, pooled over the y grid
+        from pbr_xval.report.figures import fragility_curves
+
+        ffig, fits = fragility_curves(
+            cells,
+            config.x,
+            [_variant_label(v) for v in variants],
+            run_engines,
+            group_note=f"pooled over {_units.label(config.y)} = "
+            + ", ".join(f"{v:g}" for v in sorted(set(config.y_values))),
+        )
+        tables["fragility_fits"] = fits
+        figs.append(
+            Figure(
+                name="fragility_curves",
+                figure=ffig,
+                table="fragility_fits",
+                caption=f"Probability of toppling against {_units.label(config.x)}: dots, the fraction of "
+                f"runs that toppled at each level (over the {_units.label(config.y, with_unit=False)} grid); "
+                "lines, lognormal fits by maximum likelihood (pbr_xval.catalog.fragility.fit_lognormal, "
+                "median θ and dispersion β in the legend); shaded, 90 % bootstrap band (40 refits, "
+                "runs resampled). Degenerate data (none or all toppled, complete separation, fewer than "
+                "3 levels) get no fit.",
+            )
+        )
+        for _, f in fits.iterrows():
+            if f["status"] == "ok":
+                fit_lines.append(
+                    f"{f['engine']} ({f['variant']}): θ = {f['theta']:.3g} {_units.unit(config.x)}, β = {f['beta']:.2f}"
+                )
+    except Exception as exc:  # a fit must never sink the maps
+        notes.append(f"fragility curves not drawn: {type(exc).__name__}: {exc}")
 
     summary = [
-        f"**Fragility maps** of `{scenario.name}` over {config.x} × {config.y} "
+        f"**Fragility maps** of `{scenario.name}` over {_units.label(config.x)} × {_units.label(config.y)} "
         f"({len(config.x_values)}×{len(config.y_values)} cells); reference: {ref or 'none'}",
         "",
         "| variant | engine | agreement | mean abs Δ peak disp (m) | disagreeing cells | wall s |",
@@ -260,13 +295,17 @@ def run(
             f"| {r['variant']} | {r['engine']} | {_fmt(r['agreement'], '.0%')} | "
             f"{_fmt(r['mean_abs_dpeak_m'], '.3f')} | {r['n_disagree']} | {_fmt(r['wall_s'], '.1f')} |"
         )
+    if fit_lines:
+        summary.insert(
+            1, "Lognormal fragility over " + _units.label(config.x) + ": " + "; ".join(fit_lines) + "."
+        )
     headline: dict[str, Any] = {}
     for _, r in agreement.iterrows():
         headline.setdefault(r["engine"], {})[r["variant"]] = _json_num(r["agreement"])
     return StudyResult(
         kind="fragility",
         title=f"Fragility maps — {scenario.name}",
-        tables={"fragility_cells": cells, "fragility_agreement": agreement},
+        tables=tables,
         figures=figs,
         summary=summary,
         headline=headline,
@@ -347,18 +386,16 @@ def _agreement(cells: Any, ref: str | None, variants: list[str], engines: list[s
 def _figure(
     cells: Any, agreement: Any, cfg: FragilityConfig, variants: list[str], engines: list[str], ref: str | None
 ) -> Figure:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
+
+    from pbr_xval.report.style import axis_label, subplots
 
     xs = np.asarray(sorted(set(cfg.x_values)), dtype=float)
     ys = np.asarray(sorted(set(cfg.y_values)), dtype=float)
     xe, ye = _edges(xs), _edges(ys)
     nr, nc = len(variants), len(engines)
-    fig, axes = plt.subplots(
-        nr, nc, figsize=(3.6 * nc + 1.2, 3.0 * nr + 0.6), squeeze=False, layout="constrained"
+    fig, axes = subplots(
+        nr, nc, figsize=(2.9 * nc + 1.2, 2.5 * nr + 0.6), squeeze=False, sharex=True, sharey=True
     )
     vmax = 1.0 if cfg.metric == "toppled" else cfg.clamp
     mesh = None
@@ -422,11 +459,14 @@ def _figure(
                     ha="center",
                     va="center",
                 )
-            ax.set_title(f"{eng}{' (ref)' if eng == ref else ''}{tag}\n{var}", fontsize=8)
+            ax.set_title(
+                f"{eng}{' (ref)' if eng == ref else ''}{tag}" + (f"\n{var}" if nr > 1 else ""), fontsize=10
+            )
+            ax.grid(False)
             if i == nr - 1:
-                ax.set_xlabel(cfg.x)
+                ax.set_xlabel(axis_label(cfg.x))
             if j == 0:
-                ax.set_ylabel(cfg.y)
+                ax.set_ylabel(axis_label(cfg.y))
     if mesh is not None:
         cb = fig.colorbar(mesh, ax=axes, shrink=0.8)
         cb.set_label(

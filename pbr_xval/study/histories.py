@@ -33,6 +33,7 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
@@ -61,6 +62,9 @@ class HistoriesConfig(BaseModel):
     uplift_tol : |θ| (rad) that counts as uplift.
     impact_tol : fraction of α |θ| must exceed between two returns through θ = 0.
     max_points : downsampling of the long-format θ table, per engine.
+    toppling_run : also run every engine once with the intensity scaled by ``toppling_scale``
+        (``excitation.amplitude``, else ``excitation.pgv``, else ``excitation.scale``), so the
+        report shows a history that topples beside one that does not.
     """
 
     model_config = ConfigDict(extra="forbid")
@@ -72,6 +76,8 @@ class HistoriesConfig(BaseModel):
     uplift_tol: float = Field(1e-4, gt=0)
     impact_tol: float = Field(0.01, gt=0, lt=1)
     max_points: int = Field(2000, ge=10)
+    toppling_run: bool = True
+    toppling_scale: float = Field(1.25, gt=1.0)
 
 
 # ------------------------------------------------------------------ measures
@@ -179,6 +185,20 @@ def _downsample(n: int, k: int) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ study
+INTENSITY_KEYS = ("excitation.amplitude", "excitation.pgv", "excitation.scale")
+
+
+def toppling_values(cfg: HistoriesConfig, scenario: Scenario) -> tuple[dict[str, float], str] | None:
+    """The study's values with the first intensity key of :data:`INTENSITY_KEYS` scaled up, and that key."""
+    for key in INTENSITY_KEYS:
+        try:
+            base = float(cfg.values.get(key, scenario.get_value(key)))
+        except Exception:
+            continue
+        return {**cfg.values, key: base * cfg.toppling_scale}, key
+    return None
+
+
 def _simulate(scene: Any, name: str, settings: dict[str, Any] | None) -> tuple[Trajectory | None, str, str]:
     """(trajectory, status, message); status is ok | failed | skipped."""
     from pbr_xval.runner import run_scene
@@ -225,6 +245,9 @@ def run(
     ref_name = config.reference_engine
     candidates = [ref_name] + [a for a in ANALYTICAL if a != ref_name] if ref_name else []
     n_total = len(order) + (0 if (ref_name in order or not ref_name) else 1)
+    tv = toppling_values(config, scenario) if config.toppling_run else None
+    if tv is not None:
+        n_total *= 2
     done = 0
 
     def sim(name: str) -> tuple[Trajectory | None, str, str]:
@@ -253,10 +276,54 @@ def run(
     for name in order:
         if name not in runs:
             runs[name] = sim(name)
+    shown = list(dict.fromkeys([*([ref_used] if ref_used else []), *order]))
+
+    # the same engines at a higher intensity: a history that topples
+    top_rows: list[dict[str, Any]] = []
+    top_long: list[Any] = []
+    top_key = ""
+    top_value = float("nan")
+    if tv is not None:
+        top_vals, top_key = tv
+        top_value = float(top_vals[top_key])
+        tscn = scenario
+        for k, v in top_vals.items():
+            tscn = tscn.with_value(k, v)
+        tscene = compile_scene(tscn)
+        for name in shown:
+            if runs[name][1] != "ok":
+                continue
+            if progress is not None:
+                progress(f"histories: {name} at {top_key} = {top_value:.4g}", done / max(n_total, 1))
+            traj, status, msg = _simulate(tscene, name, config.settings.get(name))
+            done += 1
+            top_rows.append(
+                {
+                    "engine": name,
+                    "status": status,
+                    "message": msg,
+                    "param": top_key,
+                    "value": top_value,
+                    "toppled": bool(traj.toppled) if traj is not None and status == "ok" else None,
+                    "toppled_at_s": _nan(traj.toppled_at)
+                    if traj is not None and status == "ok"
+                    else float("nan"),
+                }
+            )
+            if traj is not None and status == "ok" and traj.t.size:
+                keep = _downsample(traj.t.size, config.max_points)
+                top_long.append(
+                    pd.DataFrame(
+                        {
+                            "t": traj.t[keep],
+                            "engine": name,
+                            "theta_over_alpha": theta_over_alpha(traj, alpha)[keep],
+                        }
+                    )
+                )
     if progress is not None:
         progress("histories: metrics", 1.0)
 
-    shown = list(dict.fromkeys([*([ref_used] if ref_used else []), *order]))
     # reference quantities
     ref = runs[ref_used][0] if ref_used else None
     ref_q: dict[str, Any] = {}
@@ -343,6 +410,34 @@ def run(
         if long_rows
         else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"])
     )
+    theta_df["dtheta_over_alpha"] = np.nan
+    if ref_used is not None and ref_used in quantities and ref is not None:
+        ref_toa = np.where(ref_q["theta"] >= 0, ref_q["theta"] / alpha[1], ref_q["theta"] / alpha[0])
+        for name in shown:
+            if name == ref_used:
+                continue
+            sel = (theta_df["engine"] == name).to_numpy()
+            if sel.any():
+                tt = theta_df.loc[sel, "t"].to_numpy(float)
+                theta_df.loc[sel, "dtheta_over_alpha"] = theta_df.loc[sel, "theta_over_alpha"].to_numpy(
+                    float
+                ) - _interp(ref.t, ref_toa, tt)
+    top_df = pd.DataFrame(
+        top_rows, columns=["engine", "status", "message", "param", "value", "toppled", "toppled_at_s"]
+    )
+    top_theta = (
+        pd.concat(top_long, ignore_index=True)
+        if top_long
+        else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"])
+    )
+    try:
+        from pbr_xval.report.figures import ground_motion_table
+
+        t_end = float(theta_df["t"].max()) if len(theta_df) else float(scene.duration)
+        gm = ground_motion_table(scene, t_end)
+    except Exception as exc:  # pragma: no cover - a ground-motion plot must not sink the study
+        gm = None
+        notes.append(f"ground motion not drawn: {type(exc).__name__}: {exc}")
     com_df = _com_table(runs, shown, config.max_points)
 
     for name in shown:
@@ -352,8 +447,24 @@ def run(
         elif status == "failed":
             notes.append(f"{name}: FAILED ({msg})")
 
-    figs = [_theta_figure(theta_df, ref_used, scn.name), _com_figure(com_df, scn.name)]
+    figs = [_theta_figure(theta_df, ref_used, scn.name, gm)]
+    if len(top_theta):
+        figs.append(_toppling_figure(top_theta, top_df, ref_used, top_key, top_value))
+    figs.append(_com_figure(com_df, scn.name))
     summary = _summary(metrics, ref_used, scn, config)
+    if len(top_df):
+        okt = top_df[top_df["status"] == "ok"]
+        tops = okt[okt["toppled"].astype(bool)]
+        stands = okt[~okt["toppled"].astype(bool)]
+        line = f"At {_units.label(top_key, with_unit=False)} = {top_value:.4g} {_units.unit(top_key)} ({config.toppling_scale:g}×): "
+        if len(tops):
+            line += (
+                f"{', '.join(tops['engine'])} topple (t = {tops['toppled_at_s'].min():.3f}–"
+                f"{tops['toppled_at_s'].max():.3f} s)"
+            )
+        if len(stands):
+            line += ("; " if len(tops) else "") + f"{', '.join(stands['engine'])} stand"
+        summary.insert(1, line + ".")
     headline = {}
     for r in rows:
         if "peak_rel_error" in r:
@@ -364,7 +475,13 @@ def run(
     return StudyResult(
         kind="histories",
         title=f"Rocking histories — {scn.name}",
-        tables={"histories_metrics": metrics, "histories_theta": theta_df, "histories_com": com_df},
+        tables={
+            "histories_metrics": metrics,
+            "histories_theta": theta_df,
+            "histories_com": com_df,
+            **({"ground_motion": gm} if gm is not None else {}),
+            **({"toppling_runs": top_df, "toppling_theta": top_theta} if len(top_df) else {}),
+        },
         figures=figs,
         summary=summary,
         headline=headline,
@@ -451,62 +568,103 @@ def _summary(metrics: Any, ref_used: str | None, scn: Scenario, cfg: HistoriesCo
     return out
 
 
-def _theta_figure(df: Any, ref_used: str | None, name: str) -> Figure:
-    import matplotlib
+def _theta_figure(df: Any, ref_used: str | None, name: str, gm: Any = None) -> Figure:
+    from pbr_xval.report.figures import plot_ground_motion
+    from pbr_xval.report.style import engine_style, figure, rc
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for i, (eng, sub) in enumerate(df.groupby("engine", sort=False)):
-        is_ref = eng == ref_used
-        ax.plot(
-            sub["t"],
-            sub["theta_over_alpha"],
-            lw=2.2 if is_ref else 1.2,
-            color="k" if is_ref else f"C{i}",
-            ls="-" if is_ref else "--",
-            label=f"{eng} (reference)" if is_ref else eng,
-            zorder=2 if is_ref else 3,
-        )
-    for y in (-1.0, 1.0):
-        ax.axhline(y, color="0.6", lw=0.8, ls=":")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("θ / α")
-    ax.set_title(f"rocking angle — {name}")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    fig = figure(figsize=(12, 4.8))
+    with rc():
+        gs = fig.add_gridspec(3, 2, width_ratios=[2.3, 1.0], height_ratios=[1.0, 1.0, 0.9])
+        ax = fig.add_subplot(gs[0:2, 0])
+        axd = fig.add_subplot(gs[2, 0], sharex=ax)
+        for eng, sub in df.groupby("engine", sort=False):
+            st = engine_style(str(eng), ref_used)
+            ax.plot(
+                sub["t"],
+                sub["theta_over_alpha"],
+                label=f"{eng} (reference)" if eng == ref_used else str(eng),
+                **st,
+            )
+            if eng != ref_used and sub["dtheta_over_alpha"].notna().any():
+                axd.plot(sub["t"], sub["dtheta_over_alpha"], color=st["color"], lw=1.1, label=str(eng))
+        for y in (-1.0, 1.0):
+            ax.axhline(y, color="0.5", lw=0.8, ls=":")
+        ax.set_ylabel("θ / α")
+        ax.set_title(f"rocking angle θ/α — {name}")
+        ax.legend(fontsize=8, ncol=2, loc="upper right")
+        ax.tick_params(labelbottom=False)
+        axd.axhline(0.0, color="k", lw=0.8)
+        axd.set_ylabel(f"(θ − θ_{ref_used or 'ref'}) / α", fontsize=9)
+        axd.set_xlabel("t [s]")
+        axd.set_title("difference to the reference", fontsize=10)
+        if gm is not None:
+            ga = [fig.add_subplot(gs[i, 1]) for i in range(3)]
+            for g in ga[1:]:
+                g.sharex(ga[0])
+            plot_ground_motion(ga, gm)
+        for a in fig.get_axes():
+            a.grid(True, alpha=0.3, lw=0.6)
     return Figure(
         name="histories_theta",
         figure=fig,
         table="histories_theta",
-        caption="Rocking angle θ normalised by the critical angle α of the side the rock leans to; "
-        "the black line is the analytical reference, ±1 marks toppling.",
+        caption="Left: rocking angle θ normalised by the critical angle α of the side the rock leans to "
+        f"(black: the analytical reference {ref_used or '—'}; dotted: ±1, toppling); below, each engine's "
+        "difference to the reference on the engine's own times. Right: the ground motion along the "
+        "shaking direction (acceleration, velocity, displacement; data in the ground_motion table).",
+    )
+
+
+def _toppling_figure(df: Any, runs: Any, ref_used: str | None, key: str, value: float) -> Figure:
+    from pbr_xval.report.style import engine_style, subplots
+
+    fig, ax = subplots(figsize=(6.0, 3.4))
+    for eng, sub in df.groupby("engine", sort=False):
+        st = engine_style(str(eng), ref_used)
+        y = sub["theta_over_alpha"].clip(-1.6, 1.6)
+        ax.plot(sub["t"], y, label=str(eng), **st)
+        r = runs[runs["engine"] == eng]
+        if len(r) and bool(r["toppled"].iloc[0]) and math.isfinite(float(r["toppled_at_s"].iloc[0])):
+            ax.axvline(float(r["toppled_at_s"].iloc[0]), color=st["color"], lw=0.8, ls=":")
+    for y0 in (-1.0, 1.0):
+        ax.axhline(y0, color="0.5", lw=0.8, ls=":")
+    ax.set_ylim(-1.7, 1.7)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("θ / α (clipped at ±1.6)")
+    ax.set_title(f"a toppling history: {_units.label(key, with_unit=False)} = {value:.4g} {_units.unit(key)}")
+    ax.legend(fontsize=8, loc="lower left")
+    return Figure(
+        name="histories_toppling",
+        figure=fig,
+        table="toppling_theta",
+        caption="The same engines at a higher intensity: θ/α until the rock topples (|θ/α| = 1; vertical "
+        "dotted lines: each engine's toppling time).",
     )
 
 
 def _com_figure(df: Any, name: str) -> Figure:
-    import matplotlib
+    from pbr_xval.report.style import engine_colour, subplots
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4))
-    for i, (eng, sub) in enumerate(df.groupby("engine", sort=False)):
-        a1.plot(sub["com_x_m"], sub["com_y_m"], color=f"C{i}", lw=1.2, label=eng)
-        a2.plot(sub["com_x_m"], sub["com_z_m"], color=f"C{i}", lw=1.2, label=eng)
-    a1.set_xlabel("x [m]")
-    a1.set_ylabel("y [m]")
-    a1.set_title("COM path, plan view")
-    a2.set_xlabel("x [m]")
-    a2.set_ylabel("z [m]")
-    a2.set_title("COM path, side view")
-    a1.legend(fontsize=8)
-    fig.suptitle(name)
-    fig.tight_layout()
+    fig, (a1, a2) = subplots(1, 2, figsize=(6.4, 3.4))
+    for eng, sub in df.groupby("engine", sort=False):
+        c = engine_colour(str(eng))
+        x = (sub["com_x_m"] - sub["com_x_m"].iloc[0]) * 1e3
+        y = (sub["com_y_m"] - sub["com_y_m"].iloc[0]) * 1e3
+        z = (sub["com_z_m"] - sub["com_z_m"].iloc[0]) * 1e3
+        a1.plot(x, y, color=c, lw=1.2, label=str(eng))
+        a2.plot(x, z, color=c, lw=1.2, label=str(eng))
+    a1.set_aspect("equal", adjustable="datalim")  # x and y on one scale: a 60 µm drift looks like one
+    a1.set_xlabel("Δx [mm]")
+    a1.set_ylabel("Δy [mm]")
+    a1.set_title("COM, plan view (equal axes)", fontsize=10)
+    a2.set_xlabel("Δx [mm]")
+    a2.set_ylabel("Δz [mm]")
+    a2.set_title("COM, side view", fontsize=10)
+    a1.legend(fontsize=7)
     return Figure(
         name="histories_com",
         figure=fig,
         table="histories_com",
-        caption="Centre-of-mass path in the pedestal frame: plan view (x–y) and side view (x–z).",
+        caption=f"Centre-of-mass displacement from its start in the pedestal frame ({name}); the plan view "
+        "has equal x and y scales.",
     )

@@ -378,7 +378,7 @@ def _figure(
     ok = table[np.isfinite(table[mcol])]
     multi = bool((table["n_bands"] > 1).any())
     ncols = 2 if multi else 1
-    fig, axes = subplots(1, ncols, figsize=(6.0 * ncols, 3.6), squeeze=False)
+    fig, axes = subplots(1, ncols, figsize=(6.0 if ncols == 1 else 7.4, 3.6), squeeze=False)
     ax = axes[0, 0]
     y = np.arange(len(ok))[::-1]
     for yi, (_, r) in zip(y, ok.iterrows(), strict=True):

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from html.parser import HTMLParser
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import pandas as pd
-from typer.testing import CliRunner
-
-from pbr_xval.cli import app
 
 
 class _Checker(HTMLParser):
@@ -34,10 +32,9 @@ class _Checker(HTMLParser):
             self.stack.pop()
 
 
-def test_quick_demo_report(tmp_path: Path) -> None:
-    res = CliRunner().invoke(app, ["demo", "--quick", "--out", str(tmp_path)])
+def test_quick_demo_report(quick_demo: tuple[Path, Any]) -> None:
+    rep, res = quick_demo
     assert res.exit_code == 0, res.output
-    rep = tmp_path / "demo"
     html = (rep / "index.html").read_text()
     chk = _Checker()
     chk.feed(html)
@@ -55,3 +52,10 @@ def test_quick_demo_report(tmp_path: Path) -> None:
     assert "curved_base" in set(agree["engine"])
     assert (agree.loc[agree["engine"] != "curved_base", "agreement"] >= 0.75).all()
     assert (rep / "summary.md").read_text().count("## ") >= 4
+    # terminal: plain progress lines when not a terminal, a closing verdict table with the numbers
+    out = res.output
+    assert re.search(r"^\[\s*\d+ s\]\s+\d+ %", out, re.M), out[:2000]
+    assert "Verdict" in out and "m/s²" in out
+    for engine, value in ok["minimum_m_s2"].items():
+        assert f"{value:.5g} m/s²" in out, (engine, value)
+    assert "| headline |" not in (rep / "summary.md").read_text()

@@ -172,8 +172,8 @@ def test_write_report_is_valid_and_self_contained(tmp_path: Path) -> None:
     assert meta["report"]["command_line"] == "pbr-xval report x.toml"
     assert meta["study"]["kind"] == "thresholds"
     assert "machine" in meta["report"] and meta["report"]["pbr_xval_version"]
-    # long tables are folded and truncated in HTML only; the full table is the linked CSV
-    assert "theta &lt;long&gt; (500 rows, first 60 shown)" in html
+    # raw tables are not inlined: each is linked (CSV and Parquet) with its row count
+    assert "theta &lt;long&gt;</a> (500 rows" in html and "0.841471" not in html
     md = (out / "summary.md").read_text()
     assert "\n| housner | 5.638 |" in md and "<td>housner</td>" in html
     assert "# demo" in md and "**FAILED**" in md and "0.2 %" in md
@@ -420,7 +420,7 @@ def test_report_command_end_to_end(tmp_path: Path, fake_study: None) -> None:
     assert report_command(tmp_path / "missing.toml", tmp_path / "reports", console=con) == 2
 
 
-@pytest.mark.parametrize("name", ["housner.toml", "curved_base.toml", "demo.toml"])
+@pytest.mark.parametrize("name", ["housner.toml", "curved_base.toml", "demo.toml", "synthetic_rock.toml"])
 def test_example_study_files_validate(name: str) -> None:
     try:
         spec_mod.load_study_spec(EXAMPLES / "studies" / name, quick=True)
@@ -428,3 +428,44 @@ def test_example_study_files_validate(name: str) -> None:
         if "cannot be imported" in str(exc):
             pytest.skip(f"a study module is not there yet: {exc}")
         raise
+
+
+def test_native_banners_kept_off_the_console(tmp_path: Path) -> None:
+    """A banner written natively to fd 2 (as pybullet's import does) is dropped; other lines pass."""
+    code = textwrap.dedent(
+        """
+        import os, sys
+        from rich.console import Console
+        from pbr_xval.cli.report_impl import quiet_native_stdout
+        con = Console()
+        with quiet_native_stdout(con):
+            os.write(2, b"pybullet build time: Jan 29 2025 23:17:20\\n")
+            os.write(1, b"native line\\n")
+            print("python line", file=sys.stderr)
+            con.print("console line")
+        con.print("after")
+        """
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "build time" not in r.stdout + r.stderr
+    assert "native line" in r.stdout and "console line" in r.stdout and "after" in r.stdout
+    assert "python line" in r.stderr
+
+
+def test_plain_progress_lines_are_periodic() -> None:
+    from rich.console import Console
+
+    from pbr_xval.cli.report_impl import log_progress
+
+    now = [0.0]
+    con = Console(file=io.StringIO(), width=200)
+    cb = log_progress(con, interval=10.0, clock=lambda: now[0])
+    for k in range(100):  # 100 updates over 50 s in one section: a line every 10 s
+        now[0] = k * 0.5
+        cb(f"section A: sim {k}", k / 200)
+    now[0] = 51.0
+    cb("section B: start", 0.5)  # a new section always gets a line
+    lines = con.file.getvalue().splitlines()
+    assert len(lines) == 5 + 1, lines  # t = 0, 10, 20, 30, 40 s, then section B
+    assert lines[-1].endswith("section B: start") and " 50 %" in lines[-1]
