@@ -211,9 +211,11 @@ def write_rock_scenario(
     point cloud, its reconstructed closed surface written beside the scenario as
     ``<stem>.rock.obj``; the same ``units`` and ``pose`` as the model; mass properties from the
     closed mesh at ``density`` (or scaled to ``mass``); a flat pedestal; and a one-sine pulse
-    of ``frequency`` Hz along φ = 0 (+x) whose amplitude is twice the quasi-static bound
-    min(g·tan α_u(0°), g·tan α_u(180°)), so that the default threshold scan (0.5×–2×) starts
-    at the bound. The scenario is validated and compiled before it is written (atomically).
+    of ``frequency`` Hz along φ = 0 (+x) whose amplitude is 2·g·tan α with α the smaller
+    critical tilt toward ±x (at most 60°): the default threshold search (from the uplift bound
+    min(g·tan α_u(0°), g·tan α_u(180°)) to twice the amplitude) then spans the quasi-static
+    toppling level several times over. The scenario is validated and compiled before it is
+    written (atomically).
 
     Returns the :class:`~pbr_xval.scenario.Scenario`.
     """
@@ -241,8 +243,10 @@ def write_rock_scenario(
         rock_file, rock_units = obj.name, "m"
         source = f"the closed surface reconstructed from the point cloud {scan.name} ({obj.name})"
     bound = float(model.stability.shaking_bound(0.0, model.gravity))
-    if not math.isfinite(bound):
+    alpha_x = float(min(model.stability.alpha_at(0.0), model.stability.alpha_at(math.pi)))
+    if not (math.isfinite(bound) and math.isfinite(alpha_x)):
         raise ValueError(f"{scan}: the rock is not at rest in pose {pose!r}; use --pose settle")
+    amplitude = 2.0 * model.gravity * math.tan(min(alpha_x, math.radians(60.0)))
     name = re.sub(r"[^A-Za-z0-9_.\-]", "_", scan.stem)
     rock: dict[str, Any] = {"shape": "mesh", "path": rock_file, "units": rock_units, "pose": pose}
     rock.update({"mass": float(mass)} if mass is not None else {"density": float(density)})
@@ -251,7 +255,8 @@ def write_rock_scenario(
         "description": (
             f"{scan.name} on a flat pedestal, written by pbr-xval rock: mass properties from {source} "
             + (f"scaled to {mass} kg" if mass is not None else f"at {density} kg/m³")
-            + f", pose {pose!r}; one-sine pulse along +x at twice the quasi-static bound {bound:.4g} m/s²"
+            + f", pose {pose!r}; one-sine pulse along +x at 2·g·tan α = {amplitude:.4g} m/s² "
+            f"(α = {math.degrees(alpha_x):.3g}°, the smaller critical tilt toward ±x)"
         ),
         "duration": float(duration),
         "gravity": float(model.gravity),
@@ -259,7 +264,7 @@ def write_rock_scenario(
         "pedestal": {"kind": "plane"},
         "excitation": {
             "type": "one_sine",
-            "amplitude": round(2.0 * bound, 6),
+            "amplitude": round(amplitude, 6),
             "frequency": float(frequency),
             "azimuth_deg": 0.0,
         },
@@ -269,7 +274,8 @@ def write_rock_scenario(
     header = (
         f"# Scenario for {scan.name}, written by `pbr-xval rock --scenario` (pose {pose!r}).\n"
         "# Directions: azimuth_deg = 0 along +x of the scan, counter-clockwise seen from above.\n"
-        f"# Quasi-static toppling bound along ±x: {bound:.6g} m/s² (g·tan α_u, a lower bound on the PGA).\n"
+        f"# Quasi-static uplift bound along ±x: {bound:.6g} m/s² (g·tan α_u: a lower bound on the toppling PGA);\n"
+        f"# critical tilt toward ±x: {math.degrees(alpha_x):.4g}° (g·tan α = {model.gravity * math.tan(alpha_x):.6g} m/s²).\n"
         "# Edit [excitation] for your ground motion (see docs/scenarios.md).\n"
     )
     atomic_write_text(path, header + scn.to_toml())

@@ -36,6 +36,7 @@ __all__ = [
     "resample",
     "scale_to_pga",
     "scale_to_pgv",
+    "synthetic_accelerogram",
 ]
 
 _MAX_POLY = 1000  # largest up/down factor for which polyphase resampling is used
@@ -334,3 +335,49 @@ def record_from_spec(
     if factor != 1.0:
         m = m.scaled(factor)
     return m
+
+
+# ----------------------------------------------------------------------- sample record
+def synthetic_accelerogram(
+    seed: int = 0,
+    duration: float = 10.0,
+    dt: float = 0.01,
+    pga: float = 0.3 * 9.80665,
+    band_hz: tuple[float, float] = (0.3, 8.0),
+    name: str = "pbr-xval synthetic accelerogram",
+) -> Record:
+    """A deterministic, baseline-corrected synthetic accelerogram (m/s²), for examples and tests.
+
+    Gaussian white noise (``numpy.random.default_rng(seed)``) → zero-phase Butterworth band-pass
+    ``band_hz`` (order 4) → Saragoni–Hart envelope (t/t_p)^2·exp(2(1 − t/t_p)), t_p = 0.25 ×
+    ``duration`` → baseline correction: two smooth envelope-shaped terms are subtracted so that the
+    final velocity and displacement of the record (its exact piecewise-linear integrals) are both
+    0 → scaled to ``pga``. Samples at t = k·dt, k = 0 … duration/dt.
+    """
+    from scipy import signal
+
+    n = round(duration / dt) + 1
+    t = dt * np.arange(n)
+    rng = np.random.default_rng(seed)
+    w = rng.normal(size=n)
+    sos = signal.butter(4, list(band_hz), "bandpass", fs=1.0 / dt, output="sos")
+    x = signal.sosfiltfilt(sos, w)
+    tp = 0.25 * duration
+    env = (t / tp) ** 2 * np.exp(2.0 * (1.0 - t / tp))
+    a = x * env
+
+    # exact end values of v and d of the piecewise-linear a(t) (Record's integration), linear in a
+    def ends(acc: np.ndarray) -> np.ndarray:
+        r = Record(acc, dt)
+        return np.array([r.velocity(r.duration), r.displacement(r.duration)])
+
+    basis = [env * np.sin(np.pi * t / duration), env * np.sin(np.pi * t / duration) * (t / duration)]
+    m = np.column_stack([ends(b) for b in basis])
+    coef = np.linalg.solve(m, ends(a))
+    a = a - coef[0] * basis[0] - coef[1] * basis[1]
+    a *= pga / np.max(np.abs(a))
+    return Record(
+        a, dt, name=name,
+        metadata={"generator": "pbr_xval.motion.processing.synthetic_accelerogram", "seed": seed,
+                  "duration_s": duration, "band_hz": list(band_hz), "pga_m_s2": pga},
+    )  # fmt: skip

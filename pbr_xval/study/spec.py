@@ -73,6 +73,7 @@ STUDY_MODULES: dict[str, str] = {
     "fragility": "pbr_xval.study.fragility",
     "tradeoff": "pbr_xval.study.tradeoff",
     "extremes": "pbr_xval.study.extremes",
+    "azimuth": "pbr_xval.study.azimuth",
 }
 
 #: keys of a ``[[study]]`` table consumed by the runner, not by the study's Config
@@ -652,6 +653,7 @@ def _default_title(kind: str) -> str:
         "fragility": "Fragility maps",
         "tradeoff": "Speed–accuracy trade-off",
         "extremes": "Stability at the extremes",
+        "azimuth": "Toppling level per shaking azimuth",
     }.get(kind, kind)
 
 
