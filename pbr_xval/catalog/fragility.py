@@ -163,7 +163,7 @@ def _profile(lx: np.ndarray, n: np.ndarray, z: np.ndarray, which: int, value: fl
         return _nll(p, lx, n, z)
 
     lo, hi = (start - 4.0, start + 4.0) if which == 0 else (math.log(1e-3), math.log(50.0))
-    r = optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-9})
+    r = optimize.minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-7})
     return -float(r.fun)
 
 
@@ -204,7 +204,7 @@ def profile_intervals(
             if g(far) < 0:
                 ends.append(far if which == 1 else sign * math.inf)
                 continue
-            ends.append(optimize.brentq(g, p0, far, xtol=1e-10) if far != p0 else p0)
+            ends.append(optimize.brentq(g, p0, far, xtol=1e-8) if far != p0 else p0)
         out.append(
             tuple(float(math.exp(e)) if math.isfinite(e) else (0.0 if e < 0 else math.inf) for e in ends)
         )
