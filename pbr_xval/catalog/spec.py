@@ -717,7 +717,7 @@ def _engine_errors(top: dict[str, Any], motions: list[dict[str, Any]], where: st
         for i, dt in enumerate(choose.timesteps):
             if not check_settings("", {"timestep": dt}) == []:
                 out.append(
-                    _fmt(where, f"choose.timesteps[{i}]", "not a time step", dt, "a number > 0 and ≤ 0.1 s")
+                    _fmt(where, f"choose.timesteps[{i}]", "not a time step", dt, "a number > 0 and ≤ 1 s")
                 )
     if out:
         return out
