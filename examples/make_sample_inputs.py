@@ -13,7 +13,7 @@
 * ``examples/scanned_rock.toml`` — written by ``pbr-xval rock examples/rocks/synthetic_pbr.obj
   --scenario examples/scanned_rock.toml``.
 
-``tests/geometry/test_examples.py`` checks that the committed files are what this script makes.
+``tests/geometry/test_geometry_pipeline.py`` and ``tests/motion/test_records.py`` check that the committed files are what this script makes.
 
 Usage: ``python examples/make_sample_inputs.py``
 """

@@ -86,6 +86,7 @@ def rock_command(
     validated scenario TOML for the rock there (:func:`write_rock_scenario`).
     """
     from rich.console import Console
+    from rich.markup import escape
     from rich.table import Table
 
     from pbr_xval.geometry.interface import plot_stability_polar
@@ -115,7 +116,7 @@ def rock_command(
             gravity=gravity,
         )
     except (MeshError, ValueError, FileNotFoundError) as exc:
-        con.print(f"[red]error:[/red] {exc}")
+        con.print(f"[red]error:[/red] {escape(str(exc))}")
         return 2
     d = model.to_dict()
     ct = d["critical_tilt"]
@@ -184,7 +185,7 @@ def rock_command(
                 model, Path(scan), Path(scenario), units=units, pose=pose, density=density, mass=mass
             )
         except ValueError as exc:
-            con.print(f"[red]error:[/red] {exc}")
+            con.print(f"[red]error:[/red] {escape(str(exc))}")
             return 2
         con.print(
             f"wrote scenario {scenario} (check it with: pbr-xval check {scenario}; "

@@ -401,3 +401,42 @@ def test_record_scenario_keys_two_components_corrections_and_provenance(tmp_path
         ScenarioError, match=r"key 'excitation\.second\.path': .*column = 'h3': no such column"
     ):
         compile_scene(scenario_from_dict(data, source=tmp_path / "s.toml"))
+
+
+# ---------------------------------------------------------------- the example sample record
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def test_example_sample_record_files_agree_and_are_baseline_corrected():
+    """The committed AT2 (g) and text table (cm/s²) hold the same record, the one the generator
+    makes; its final velocity and displacement vanish by an independent trapezoidal integration
+    (measured: |v_end| 1e-15 m/s, |d_end| 1e-7 m against a peak displacement of 0.16 m)."""
+    from scipy.integrate import cumulative_trapezoid
+
+    from pbr_xval.motion.processing import synthetic_accelerogram
+
+    at2 = read_record(EXAMPLES / "records" / "synthetic_accelerogram.AT2")
+    txt = read_record(
+        EXAMPLES / "records" / "synthetic_accelerogram.txt",
+        units="cm/s2",
+        time_column="time_s",
+        column="acc_cm_s2",
+    )
+    gen = synthetic_accelerogram(seed=2026)
+    assert at2.npts == txt.npts == gen.npts == 1001 and at2.dt == txt.dt == gen.dt == 0.01
+    np.testing.assert_allclose(at2.acc, gen.acc, atol=1e-7 * G_STANDARD)  # AT2 prints 8 significant digits
+    np.testing.assert_allclose(txt.acc, gen.acc, atol=1e-10)
+    assert gen.pga == pytest.approx(0.3 * G_STANDARD, rel=1e-12)
+    v = cumulative_trapezoid(at2.acc, dx=at2.dt, initial=0.0)
+    d = cumulative_trapezoid(v, dx=at2.dt, initial=0.0)
+    assert abs(v[-1]) < 1e-5 and abs(d[-1]) < 1e-4 * np.max(np.abs(d))
+
+
+def test_example_record_scenario_compiles_at_its_target_pga():
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.scene import compile_scene
+
+    scn = load_scenario(EXAMPLES / "record_scenario.toml")
+    scene = compile_scene(scn)
+    assert scene.excitation.horizontal.pga == pytest.approx(4.0, rel=1e-12)
+    assert scene.info()["excitation"]["horizontal"]["units"] == "g"
