@@ -264,7 +264,7 @@ def run(
         tables["fragility_fits"] = fits
         figs.append(
             Figure(
-                name="fragility_curves",
+                name="fragility_fits",  # = its table: one CSV
                 figure=ffig,
                 table="fragility_fits",
                 caption=f"Probability of toppling against {_units.label(config.x)}: dots, the fraction of "
@@ -473,7 +473,7 @@ def _figure(
             "toppled" if cfg.metric == "toppled" else f"peak COM displacement [m] (clamped at {cfg.clamp:g})"
         )
     return Figure(
-        name="fragility_maps",
+        name="fragility_cells",  # = its table: one CSV
         figure=fig,
         table="fragility_cells",
         caption=(

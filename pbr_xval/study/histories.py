@@ -593,6 +593,16 @@ def _theta_figure(df: Any, ref_used: str | None, name: str, gm: Any = None) -> F
         ax.set_title(f"rocking angle θ/α — {name}")
         ax.legend(fontsize=8, ncol=2, loc="upper right")
         ax.tick_params(labelbottom=False)
+        if not df["dtheta_over_alpha"].notna().any():
+            axd.text(
+                0.5,
+                0.5,
+                "no analytical reference applies: no difference panel",
+                transform=axd.transAxes,
+                ha="center",
+                va="center",
+                color="0.4",
+            )
         axd.axhline(0.0, color="k", lw=0.8)
         axd.set_ylabel(f"(θ − θ_{ref_used or 'ref'}) / α", fontsize=9)
         axd.set_xlabel("t [s]")
@@ -609,9 +619,14 @@ def _theta_figure(df: Any, ref_used: str | None, name: str, gm: Any = None) -> F
         figure=fig,
         table="histories_theta",
         caption="Left: rocking angle θ normalised by the critical angle α of the side the rock leans to "
-        f"(black: the analytical reference {ref_used or '—'}; dotted: ±1, toppling); below, each engine's "
-        "difference to the reference on the engine's own times. Right: the ground motion along the "
-        "shaking direction (acceleration, velocity, displacement; data in the ground_motion table).",
+        + (
+            f"(black: the analytical reference {ref_used}; dotted: ±1, toppling); below, each engine's "
+            "difference to the reference on the engine's own times. "
+            if ref_used
+            else "(dotted: ±1, toppling; no analytical reference applies to this rock). "
+        )
+        + "Right: the ground motion along the shaking direction (acceleration, velocity, displacement; "
+        "data in the ground_motion table).",
     )
 
 
@@ -634,7 +649,7 @@ def _toppling_figure(df: Any, runs: Any, ref_used: str | None, key: str, value: 
     ax.set_title(f"a toppling history: {_units.label(key, with_unit=False)} = {value:.4g} {_units.unit(key)}")
     ax.legend(fontsize=8, loc="lower left")
     return Figure(
-        name="histories_toppling",
+        name="toppling_theta",  # = its table: one CSV
         figure=fig,
         table="toppling_theta",
         caption="The same engines at a higher intensity: θ/α until the rock topples (|θ/α| = 1; vertical "

@@ -296,7 +296,7 @@ def run(
         tables["rock_contact"] = rdata
         figs.append(
             Figure(
-                name="rock",
+                name="rock_contact",  # = its table: one CSV
                 figure=rfig,
                 table="rock_contact",
                 caption="The rock at rest: side view and plan view on equal axes; red: the contact "

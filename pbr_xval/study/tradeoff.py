@@ -564,7 +564,7 @@ def _figure(df: Any, ref: float) -> Figure:
     if len(ok):
         ax.legend(fontsize=8)
     return Figure(
-        "tradeoff_pareto",
+        "tradeoff_points",  # = its table: one CSV
         fig,
         "tradeoff_points",
         "Threshold error vs cost per simulation; lines are each engine's Pareto front, faint dots "

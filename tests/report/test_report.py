@@ -469,3 +469,60 @@ def test_plain_progress_lines_are_periodic() -> None:
     lines = con.file.getvalue().splitlines()
     assert len(lines) == 5 + 1, lines  # t = 0, 10, 20, 30, 40 s, then section B
     assert lines[-1].endswith("section B: start") and " 50 %" in lines[-1]
+
+
+def _thresholds_result(
+    minima: dict[str, float], reference: float | None, ref_engine: str | None
+) -> StudyResult:
+    rows = [
+        {
+            "engine": e,
+            "status": "ok",
+            "message": "",
+            "param": "excitation.amplitude",
+            "minimum_m_s2": v,
+            "tolerance_m_s2": 1e-4 * v,
+            "n_bands": 1,
+            "n_simulations": 12,
+            "wall_s": 2.0,
+            "rel_error_vs_reference": (v / reference - 1) if reference else float("nan"),
+        }
+        for e, v in minima.items()
+    ]
+    return StudyResult(
+        kind="thresholds",
+        title="t",
+        tables={"thresholds": pd.DataFrame(rows)},
+        provenance={
+            "scenario_label": "box",
+            "reference_engine": ref_engine,
+            "config": {"param": "excitation.amplitude", "reference": reference},
+        },
+    )
+
+
+def test_verdict_marks_and_names_disagreements() -> None:
+    from pbr_xval.report.verdict import TOL_NUMERICAL, build_verdict
+
+    # mujoco 0.1 % off (within ±0.2 %), pybullet 1 % off (beyond), against Housner's 5.638
+    r = _thresholds_result(
+        {"housner": 5.638, "mujoco": 5.638 * 1.001, "pybullet": 5.638 * 0.99}, 5.638, "housner"
+    )
+    v = build_verdict([r])
+    (case,) = v.cases
+    assert case.unit == "m/s²" and "5.638 m/s²" in case.reference_text
+    assert v.cell("mujoco", case.key).status == "pass"
+    assert v.cell("mujoco", case.key).tolerance == pytest.approx(TOL_NUMERICAL + 1.001e-4)  # + its bracket
+    assert v.cell("pybullet", case.key).status == "attention"
+    assert v.cell("pybullet", case.key).deviation == pytest.approx(-0.01)
+    (finding,) = v.findings
+    assert "pybullet" in finding and "-1.00 %" in finding
+    # no analytical reference: deviation from the engines' median, ±1 %
+    m = build_verdict([_thresholds_result({"mujoco": 2.48, "pybullet": 2.53, "dart": 2.63}, None, None)])
+    (c2,) = m.cases
+    assert "median" in c2.reference_text and m.cell("pybullet", c2.key).deviation == pytest.approx(0.0)
+    assert m.cell("dart", c2.key).status == "attention" and m.cell("mujoco", c2.key).status == "attention"
+    assert "spread 6.0%" in m.headlines[0]
+    # the writer puts the verdict first, with the numbers in data attributes and in verdict.csv
+    md = "\n".join(v.markdown())
+    assert "| box: pulse amplitude threshold | pybullet | 5.5816 m/s² | -1.00 % |" in md
