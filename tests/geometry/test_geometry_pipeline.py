@@ -301,7 +301,15 @@ def test_rock_command_on_a_synthetic_scan(tmp_path):
     scan = write_point_cloud(simulate_scan(m, seed=5) + np.array([100.0, 200.0, 50.0]), tmp_path / "syn.xyz")
     out = tmp_path / "rep"
     con = Console(record=True, width=120)
-    assert rock_command(scan, None, 2700.0, "m", out, n_directions=24, console=con) == 0
+    scn_path = tmp_path / "syn.toml"
+    assert rock_command(scan, None, 2700.0, "m", out, n_directions=24, console=con, scenario=scn_path) == 0
+    # a point cloud: the scenario refers to its reconstructed closed surface, written beside it
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.scene import compile_scene
+
+    scn = load_scenario(scn_path)
+    assert scn.rock.path == "syn.rock.obj" and (tmp_path / "syn.rock.obj").is_file()
+    assert compile_scene(scn).rock.mass == pytest.approx(2700.0 * m.volume, rel=0.03)
     d = json.loads((out / "rock.json").read_text())
     assert d["volume_m3"] == pytest.approx(m.volume, rel=0.03)
     assert d["com_scan_m"][2] > 50.0
