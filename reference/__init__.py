@@ -1,1 +1,64 @@
+"""The ``reference`` engine: the seed paper's rigid-body LCP solver (Veeraraghavan & Krishnan, §3).
 
+Modules, to read beside the paper's Section 3:
+
+* :mod:`~pbr_xval.reference.engine` — the engine (settings, the time loop, step-backs, events);
+* :mod:`~pbr_xval.reference.dynamics` — state (u_cm, u̇_cm, R, l), eqs. 3.1–3.4, contact
+  detection within ±ε, collisions (eq. 3.5), resting contact (eqs. 3.6–3.7), in NumPy;
+* :mod:`~pbr_xval.reference.kernel` — the same step compiled with numba (``compiled = True``,
+  the default), the active-set resting solve and the support-hull reduction;
+* :mod:`~pbr_xval.reference.pivoting` — Lemke and Dantzig/Baraff pivoting (eq. 3.5);
+* :mod:`~pbr_xval.reference.selection` — choosing among non-unique impact solutions;
+* :mod:`~pbr_xval.reference.cone` — the iterative Coulomb-cone solver and the friction-pyramid
+  LCP (eqs. 3.6–3.7, the general fallback);
+* :mod:`~pbr_xval.reference.lcp` — all solvers under one import.
+
+Deviations from the paper
+-------------------------
+This is the one place that lists them; each is also marked where it is implemented.
+
+1. **Resting contact is not Baraff's Dantzig extended to 3-D.** The paper modifies Baraff's
+   (1994) 2-D friction pivoting for 3-D; that algorithm is not published. Here the resting
+   forces of eqs. 3.6–3.7 (exact circular cone, μ_s) come from an active-set solve
+   (:func:`kernel.active_set_solve`: the previous step's free/stick/slide statuses, one
+   equality solve, *verified* against every condition of eqs. 3.6–3.7, a few corrections);
+   when no guess verifies, from an iterative cone solver (:func:`cone.solve_friction_cone`)
+   and, if that does not converge, a 16-facet friction-pyramid LCP solved by Lemke
+   (:func:`cone.solve_friction_pyramid`). Failures of both are counted (``lcp_failures``).
+2. **Sticking on three or more points is solved in the least-squares sense.** The centripetal
+   part |ω|² r of the contact accelerations cannot be cancelled by any contact force when
+   three or more non-collinear points stick (rigid Coulomb contact is inconsistent at that
+   order); the minimum-norm least-squares forces are taken and the left-over acceleration is
+   bounded by 2 |ω|² max |r| (zero at rest). Exact Coulomb solutions would need micro-slip
+   with large internal tangential forces; it was this case that made the earlier cone
+   iteration stall on a resting block.
+3. **Impacts use a Coulomb cone with μ_s.** Eq. 3.5 has normal impulses only; a frictionless
+   impulse would let a landing block slide. The impulses are solved with the cone (velocity
+   form of eqs. 3.6–3.7, μ_s), which reproduces Housner's impact rule (ratio 0.850 for the
+   project block), then the normal impulses are re-selected with the eq. 3.5 LCP, tangential
+   impulses held fixed.
+4. **Non-unique impact solutions are selected explicitly** (:mod:`selection`): the paper's
+   Dantzig returns some vertex; here the solution closest to the previous step's impulses
+   (``impact_selection = "closest_to_previous"``) or the minimum-norm one.
+5. **Steps are accepted after the step-back limit.** The paper halves Δt "until no node of the
+   rock penetrates more than ε". Here, after ``max_stepbacks`` halvings or below
+   ``min_timestep``, the step is accepted with its penetration. This is a reported
+   condition: the diagnostic ``min_timestep_hits`` counts such steps,
+   ``accepted_penetration_max_m`` gives the deepest, and each (the first
+   :data:`engine.MAX_ACCEPT_EVENTS` of a run) is a ``step_accepted_penetrating`` event
+   with Δt, the penetration and ε.
+6. **Velocity stabilisation.** Small residual approaching normal velocities of resting
+   contacts and tangential velocities of sticking ones (left by the integration) are removed
+   by a term v₀/Δt in the free acceleration b; zero in exact arithmetic.
+7. **Thresholds the paper leaves open:** an in-band contact approaching faster than
+   ``impact_velocity`` (1e-3 m/s) gets eq. 3.5 impulses; one sliding faster than
+   ``slip_velocity`` (1e-4 m/s) gets dynamic friction μ_d; one separating faster than
+   ``separation_velocity`` (1e-6 m/s) carries no resting force; the direct iteration stops at
+   ``iteration_tol`` or after ``iterations`` (non-converged steps are counted).
+8. **Contact nodes.** The contact set of a step is reduced to its support hull (exact: a node
+   that is a convex combination of other contact nodes can carry no force that they cannot,
+   see :mod:`kernel`); the rock's other convex-hull vertices are added to the basal nodes
+   (``side_nodes``) so that a rock rotated far — lying on its side — still meets the pedestal.
+9. **Rest hold.** After the excitation has ended, a rock whose speed and velocity change per
+   step are below ``rest_velocity`` is held (exact for a rigid rock on a rigid pedestal).
+"""

@@ -33,7 +33,7 @@ Collisions (eq. 3.5)
     impulses. v⁺ = A j + b with A the contact-space inverse inertia
     A_mn = d_mᵀ (M⁻¹ + [r_m]×ᵀ I⁻¹ [r_n]×) d_n. With friction (μ > 0) the impulses are
     found together with Coulomb's cone on the impulses (the velocity-level form of
-    eqs. 3.6–3.7, :func:`lcp.solve_friction_cone`): Housner's impact rule (angular
+    eqs. 3.6–3.7; active-set solve, else :func:`cone.solve_friction_cone`): Housner's impact rule (angular
     momentum conserved about the landing edge, ratio 1 − 1.5 sin²α = 0.850 for the
     project block) *requires* a sticking tangential impulse at the landing edge — a
     frictionless eq. 3.5 impulse would let the block slide on impact. The normal impulses
@@ -44,7 +44,7 @@ Collisions (eq. 3.5)
     not depend on the choice). ``impact_selection = "closest_to_previous"`` takes the
     solution closest to the previous step's contact impulses (Veeraraghavan, Hall &
     Krishnan: continuity, independent of the pivoting path); ``"min_norm"`` the
-    minimum-norm split. Both use :func:`lcp.solve_lcp_min_norm`.
+    minimum-norm split. Both use :func:`selection.solve_lcp_min_norm`.
 
 Resting contact (eqs. 3.6–3.7)
     Contacts in the band that are neither approaching nor separating carry forces with
@@ -57,15 +57,18 @@ Resting contact (eqs. 3.6–3.7)
     acceleration needed to null them over one step and is zero in exact arithmetic;
     velocities below 1e-8 m/s are left alone).
 
-    Cost: when nothing changed at the step boundary (same contacts, no stabilisation term,
-    no impact, continuous load) the converged end-of-step forces of the previous step are
-    the start-of-step forces of this one and are reused; the direct iteration starts from
-    forces extrapolated linearly from the previous step.
+    The direct iteration starts from end-of-step forces extrapolated linearly from the
+    previous step.
 
-    Speed: the active set (free / stick / slide per contact) of the previous solve is tried
-    first by one equality solve; the answer is accepted only if it satisfies every
-    condition of eqs. 3.6–3.7 (then it *is* an exact LCP solution); otherwise the full
-    solver of :mod:`pbr_xval.reference.lcp` is called.
+    Solving: the active set (free / stick / slide per contact) of the previous solve is
+    tried first (:func:`kernel.active_set_solve`); the answer is accepted only if it
+    satisfies every condition of eqs. 3.6–3.7; otherwise the general solvers of
+    :mod:`pbr_xval.reference.cone` are called. Every deviation from the paper is listed in
+    :mod:`pbr_xval.reference` (the package docstring).
+
+    Speed: :meth:`Stepper.step` runs the compiled :func:`kernel.step` (the same arithmetic
+    as :meth:`Stepper._step_general`, kept equal by a test) and falls back to the NumPy
+    step when an active-set guess fails.
 
 Ground motion
     ``inertial``: the pedestal is the (non-inertial) reference frame, the load −m a_g(t) is
@@ -78,14 +81,14 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from scipy.linalg.lapack import dgesv as _dgesv
 
-from pbr_xval.reference import lcp
+from pbr_xval.reference import cone, kernel, pivoting, selection
 
 __all__ = [
     "Body",
@@ -99,18 +102,6 @@ __all__ = [
 
 #: contact basis rows (n, x, y) for a horizontal pedestal surface
 BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-#: world (x, y, z) components → contact (n, x, y) order, and back
-_NXY = np.array([2, 0, 1])
-_XYZ = np.array([1, 2, 0])
-#: r @ _CANG = [r × n, r × x, r × y] (k, 9) for n = ez, x = ex, y = ey
-_CANG = np.hstack(
-    [
-        np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-        np.array([[0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
-        np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
-    ]
-)
-
 
 _ZERO3 = np.zeros(3)
 _ZERO3.flags.writeable = False
@@ -191,17 +182,44 @@ class Body:
         self.nodes = np.ascontiguousarray(self.nodes, dtype=float)
 
 
-@dataclass
 class State:
-    """(u_cm, u̇_cm, R, l) of Section 3; world (inertial-mode: pedestal) frame."""
+    """(u_cm, u̇_cm, R, l) of Section 3; world (inertial-mode: pedestal) frame.
 
-    x: np.ndarray
-    v: np.ndarray
-    R: np.ndarray
-    l: np.ndarray  # noqa: E741 - the paper's name for the angular momentum
+    Stored in one packed buffer ``buf`` (18,) = (x, v, R row-major, l) that the compiled
+    kernel reads and writes; ``x``, ``v``, ``R``, ``l`` are views of it (assigning one
+    writes into the buffer).
+    """
+
+    __slots__ = ("_R", "_l", "_v", "_x", "buf")
+
+    def __init__(self, x: np.ndarray, v: np.ndarray, R: np.ndarray, l: np.ndarray) -> None:  # noqa: E741
+        buf = np.empty(18)
+        buf[0:3] = x
+        buf[3:6] = v
+        buf[6:15] = np.ravel(R)
+        buf[15:18] = l
+        self._bind(buf)
+
+    def _bind(self, buf: np.ndarray) -> None:
+        self.buf = buf
+        self._x = buf[0:3]
+        self._v = buf[3:6]
+        self._R = buf[6:15].reshape(3, 3)
+        self._l = buf[15:18]
+
+    @classmethod
+    def from_buf(cls, buf: np.ndarray) -> State:
+        s = cls.__new__(cls)
+        s._bind(buf)
+        return s
+
+    x = property(lambda self: self._x, lambda self, val: self._x.__setitem__(slice(None), val))
+    v = property(lambda self: self._v, lambda self, val: self._v.__setitem__(slice(None), val))
+    R = property(lambda self: self._R, lambda self, val: self._R.__setitem__(slice(None), val))
+    l = property(lambda self: self._l, lambda self, val: self._l.__setitem__(slice(None), val))  # noqa: E741
 
     def copy(self) -> State:
-        return State(self.x.copy(), self.v.copy(), self.R.copy(), self.l.copy())
+        return State.from_buf(self.buf.copy())
 
 
 @dataclass
@@ -244,7 +262,9 @@ class ContactStats:
     iteration_nonconverged: int = 0
     min_timestep_hits: int = 0
     impacts: int = 0
-    force_reuse: int = 0
+    kernel_steps: int = 0
+    general_steps: int = 0
+    full_solves: int = 0
     selection_reverted: int = 0
     lcp_solves: int = 0
     lcp_fast_path: int = 0
@@ -253,6 +273,7 @@ class ContactStats:
     pgs_sweeps: int = 0
     cone_fallbacks: int = 0
     lcp_time: float = 0.0
+    kernel_time: float = 0.0
     signorini_f: list[float] = field(default_factory=list)
     signorini_a: list[float] = field(default_factory=list)
     complementarity: list[float] = field(default_factory=list)
@@ -282,7 +303,9 @@ class ContactStats:
             "iterations_max": self.iterations_max,
             "iterations_nonconverged": self.iteration_nonconverged,
             "impacts": self.impacts,
-            "force_reuse": self.force_reuse,
+            "kernel_steps": self.kernel_steps,
+            "general_steps": self.general_steps,
+            "lcp_full_solves": self.full_solves,
             "impact_selection_reverted": self.selection_reverted,
             "impact_ratios": [float(x) for x in self.impact_ratios[:50]],
             "lcp_solves": self.lcp_solves,
@@ -292,6 +315,8 @@ class ContactStats:
             "pgs_sweeps": self.pgs_sweeps,
             "cone_fallbacks": self.cone_fallbacks,
             "lcp_time_s": self.lcp_time,
+            "kernel_time_s": self.kernel_time,
+            "impact_solves": self.impacts,
             "signorini_force_max": mx(self.signorini_f),
             "signorini_accel_max": mx(self.signorini_a),
             "signorini_accel_mean": mean(self.signorini_a),
@@ -309,7 +334,7 @@ class StepRejected(Exception):
 
 @dataclass
 class _Contacts:
-    """Contacts of one state: node ids, lever arms r (k, 3), status per contact."""
+    """Contacts of one step: node ids, status per contact (support-hull reduced)."""
 
     idx: np.ndarray
     slide: np.ndarray  # bool (k,) dynamic friction
@@ -317,7 +342,6 @@ class _Contacts:
     stab: np.ndarray  # (3k,) velocity-stabilisation term v0/Δt added to b
     nodes: np.ndarray  # (k, 3) the contact nodes in body coordinates
     any_slide: bool = False
-    status: tuple | None = None  # (version of Stepper._active, guessed status per contact)
 
 
 class Stepper:
@@ -330,7 +354,8 @@ class Stepper:
     load : t -> (3,) acceleration of the COM from non-contact loads (gravity and, in the
         inertial mode, −a_g(t)), m/s².
     mu_s, mu_d, restitution : contact parameters.
-    settings : the engine's resolved settings.
+    settings : the engine's resolved settings (``compiled``: run the step in
+        :func:`kernel.step`; ``support_hull``: reduce the contact set to its support hull).
     """
 
     def __init__(
@@ -341,7 +366,7 @@ class Stepper:
         mu_s: float,
         mu_d: float,
         restitution: float,
-        settings: dict[str, Any],
+        settings: Mapping[str, Any],
     ) -> None:
         self.body = body
         self.ped = pedestal
@@ -358,24 +383,50 @@ class Stepper:
         self.v_sep = float(settings["separation_velocity"])
         self.v_slip = float(settings["slip_velocity"])
         self.orth_tol = float(settings["orthogonality_tol"])
+        self.compiled = bool(settings.get("compiled", True))
+        self.reduce = bool(settings.get("support_hull", True))
+        #: accept the next step whatever its penetration (set by the caller after the
+        #: step-back limit; counted and reported there)
+        self.accept_any = False
         self.stats = ContactStats()
         n = body.nodes.shape[0]
-        self._active = np.ones(n, dtype=int)  # per node: 0 free, 1 stick, 2 slide (last solve)
-        self._active_version = 0  # incremented whenever _active changes
-        self._rows_cache: dict[bytes, tuple] = {}  # status -> clamped rows (see _active_rows)
+        self._active = np.ones(n, dtype=np.int64)  # per node: 0 free, 1 stick, 2 slide (last solve)
         self._prev_force = np.zeros((n, 3))  # per node: last (n, x, y) contact force, N
+        self._pred = np.zeros(9)  # predictor memory: valid, t1, Δt, F0 (3), τ0 (3)
+        self._pred_idx = np.zeros(n + 1, dtype=np.int64)  # its contact ids (count first)
         self._load_cache: tuple[float, np.ndarray] = (math.nan, np.zeros(3))
-        self._lin_cache: dict[int, np.ndarray] = {}
         # angular-momentum scale per unit COM speed: λ_max(I') / (largest node lever arm)
         self._lref = float(np.linalg.eigvalsh(body.inertia).max()) / max(
             float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300
         )
-        self._last: tuple | None = None
+        self._size = max(float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
         self._kin_cache: tuple | None = None  # (state, t, node_kinematics(state, t))
-        self._lin_m: dict[int, np.ndarray] = {}  # k -> _lin_block(k) / m
-        self._pred: tuple | None = (
-            None  # (t1, Δt, F0, τ0, contact ids) for the predictor  # (t1, contact ids, slide flags, F1, τ1, load) of the last step
-        )
+        prm = np.zeros(kernel.N_PARAMS)
+        prm[kernel.P_MASS] = body.mass
+        prm[kernel.P_MU_S] = self.mu_s
+        prm[kernel.P_MU_D] = self.mu_d
+        prm[kernel.P_EPS] = self.eps
+        prm[kernel.P_ITER] = self.iterations
+        prm[kernel.P_ITOL] = self.itol
+        prm[kernel.P_VSEP] = self.v_sep
+        prm[kernel.P_VSLIP] = self.v_slip
+        prm[kernel.P_ORTH] = self.orth_tol
+        prm[kernel.P_LREF] = self._lref
+        prm[kernel.P_PED_KIND] = 1.0 if pedestal.kind == "box" and pedestal.half_extents is not None else 0.0
+        if prm[kernel.P_PED_KIND]:
+            prm[kernel.P_HX], prm[kernel.P_HY] = pedestal.half_extents[0], pedestal.half_extents[1]
+        prm[kernel.P_REDUCE] = 1.0 if self.reduce else 0.0
+        self._prm = prm
+        self._ext = np.zeros((7, 3))
+        self._info = np.zeros(kernel.N_INFO)
+        self.last_gaps = np.zeros(n)
+        self.last_force = np.zeros(3)
+        self.last_torque = np.zeros(3)
+        #: after :meth:`step`: ω (3,) at the end of the step, rad/s; the smallest node gap (m)
+        #: and the number of nodes within ε
+        self.last_omega: Any = np.zeros(3)
+        self.last_gmin = 0.0
+        self.last_ncontacts = 0
 
     # ------------------------------------------------------------------ kinematics
     def omega(self, s: State) -> np.ndarray:
@@ -389,10 +440,9 @@ class Stepper:
         """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω.
 
         The answer for the last (state object, t) is kept: the impact check and the contact
-        set of the step that follows are made at the same state (states are never modified
-        in place)."""
+        set of the step that follows are made at the same state."""
         kc = self._kin_cache
-        if kc is not None and kc[0] is s and kc[1] == t:
+        if kc is not None and kc[0] is s and kc[1] == t and np.array_equal(kc[3], s.buf):
             return kc[2]
         r = self.body.nodes @ s.R.T
         d, vp, _ = self.ped.motion(t)
@@ -400,41 +450,27 @@ class Stepper:
         w = self.omega(s)
         vel = s.v + cross(w, r) - vp
         out = (r, gaps, vel @ BASIS.T, w)
-        self._kin_cache = (s, t, out)
+        self._kin_cache = (s, t, out, s.buf.copy())
         return out
 
-    # ------------------------------------------------------------------ contact matrices
-    def _jacobians(self, r: np.ndarray, slide: np.ndarray, sdir: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Measurement rows G_m and force rows G_f (3k, 6) = [d, r × d] per (n, x, y).
-
-        For a sliding contact the force row of n is n − μ_d ŝ (dynamic friction rides on the
-        normal force) and its tangential force rows are unused (f_t = 0).
-        """
-        k = r.shape[0]
-        # rows (n, x, y) = (ez, ex, ey); angular parts r × ez, r × ex, r × ey written out
-        gm = np.zeros((k, 3, 6))
-        gm[:, 0, 2] = 1.0
-        gm[:, 1, 0] = 1.0
-        gm[:, 2, 1] = 1.0
-        rx, ry, rz = r[:, 0], r[:, 1], r[:, 2]
-        gm[:, 0, 3], gm[:, 0, 4] = ry, -rx
-        gm[:, 1, 4], gm[:, 1, 5] = rz, -ry
-        gm[:, 2, 3], gm[:, 2, 5] = -rz, rx
-        gm = gm.reshape(3 * k, 6)
-        if not np.any(slide):
-            return gm, gm
-        dl = gm[:, :3].copy()
-        rr = np.repeat(r, 3, axis=0)
-        df = dl.copy()
-        rows = np.flatnonzero(slide) * 3
-        df[rows] = BASIS[0] - self.mu_d * sdir[slide]
-        gf = np.hstack([df, cross(rr, df)])
-        return gm, gf
-
-    def _delassus(self, gm: np.ndarray, gf: np.ndarray, R: np.ndarray) -> np.ndarray:
-        """A_mn = G_m,m M⁻¹ G_f,nᵀ with M⁻¹ = diag(I/m, I_world⁻¹)."""
-        iw = self.inv_inertia_world(R)
-        return (gm[:, :3] @ gf[:, :3].T) / self.body.mass + gm[:, 3:] @ iw @ gf[:, 3:].T
+    def impact_pending(self, s: State, t: float) -> bool:
+        """True when an in-band node approaches faster than ``impact_velocity`` (eq. 3.5)."""
+        d, vp, _ = self.ped.motion(t)
+        prm = self._prm
+        return bool(
+            kernel.impact_pending(
+                s.buf,
+                self.body.inertia_inv,
+                self.body.nodes,
+                d,
+                vp,
+                self.eps,
+                self.v_imp,
+                int(prm[kernel.P_PED_KIND]),
+                prm[kernel.P_HX],
+                prm[kernel.P_HY],
+            )
+        )
 
     # ------------------------------------------------------------------ resting contact
     def _load(self, t: float) -> np.ndarray:
@@ -447,146 +483,76 @@ class Stepper:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Total force F_T (3,), torque τ_T (3,) and contact forces f (3k,) at state s (eqs. 3.6–3.7).
 
-        a = A f + b with A_mn = d_mᵀ (M⁻¹ + [r_m]×ᵀ I⁻¹ [r_n]×) d_n and b the free relative
-        acceleration of the contact points (gravity, ground load, centripetal and gyroscopic
-        terms). ``diag``: record the eq. 3.6–3.7 residuals of this solve.
+        a = A f + b with A = G_m M⁻¹ G_fᵀ (:func:`kernel.contact_problem`) and b the free
+        relative acceleration of the contact points (gravity, ground load, centripetal and
+        gyroscopic terms, velocity stabilisation). ``diag``: record the eq. 3.6–3.7
+        residuals of this solve.
         """
         m = self.body.mass
         a_load = self._load(t)
         k = c.idx.size
         if k == 0:
             return m * a_load, np.zeros(3), np.zeros(0)
-        R = s.R
-        r = c.nodes @ R.T
-        iw = R @ self.body.inertia_inv @ R.T
-        w = iw @ s.l
         _, _, ap = self.ped.motion(t)
-        # free acceleration of the contact points relative to the pedestal:
-        # a_cm + α × r + ω × (ω × r) − a_p with α = I⁻¹(τ_ext − ω × l), τ_ext = 0 about the COM
-        wx = skew(w)
-        alpha = -(iw @ (wx @ s.l))
-        kin = skew(alpha) + wx @ wx
-        acc = r @ kin.T + (a_load - ap)
-        b = acc[:, _NXY].ravel() + c.stab
-        if c.any_slide:
-            gm, gf = self._jacobians(r, c.slide, c.sdir)
-            A = (gm[:, :3] @ gf[:, :3].T) / m + gm[:, 3:] @ iw @ gf[:, 3:].T
-            f = self._solve_resting(A, b, c, diag)
-            return m * a_load + gf[:, :3].T @ f, gf[:, 3:].T @ f, f
-        gang = (r @ _CANG).reshape(3 * k, 3)  # rows r × n, r × x, r × y
-        lin_m = self._lin_m.get(k)
-        if lin_m is None:
-            lin_m = self._lin_m[k] = self._lin_block(k) / m
-        A = lin_m + gang @ iw @ gang.T
-        f = self._solve_resting(A, b, c, diag)
-        F = m * a_load + f.reshape(k, 3).sum(axis=0)[_XYZ]
-        return F, gang.T @ f, f
+        A, b, gf, cons = kernel.contact_problem(
+            s.R, s.l, self.body.inertia_inv, m, c.nodes, c.slide, c.sdir, c.stab, a_load - ap, self.mu_d
+        )
+        f = self._solve_resting(A, b, c, diag, 2.0 * cons)
+        wrench = gf.T @ f
+        return m * a_load + wrench[:3], wrench[3:], f
 
-    def _lin_block(self, k: int) -> np.ndarray:
-        """d_mᵀ d_n for the (n, x, y) rows of k contacts (orthonormal basis: I₃ blocks)."""
-        blk = self._lin_cache.get(k)
-        if blk is None:
-            blk = np.kron(np.ones((k, k)), np.eye(3))
-            self._lin_cache[k] = blk
-        return blk
-
-    def _solve_resting(self, A: np.ndarray, b: np.ndarray, c: _Contacts, diag: bool) -> np.ndarray:
+    def _solve_resting(
+        self, A: np.ndarray, b: np.ndarray, c: _Contacts, diag: bool, cons_tol: float
+    ) -> np.ndarray:
         t0 = time.perf_counter()
         k = c.idx.size
         self.stats.lcp_solves += 1
-        if c.status is None or c.status[0] != self._active_version:
-            status = self._active[c.idx]
-            status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
-            c.status = (self._active_version, status)
-        f, a = self._try_active_set(A, b, c.status[1])
-        if f is not None:
+        status = self._active[c.idx]
+        status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
+        ok, f, a, st = kernel.active_set_solve(A, b, status, np.full(k, self.mu_s), cons_tol, k + 1)
+        if ok:
             self.stats.lcp_fast_path += 1
         else:
-            a = None
             f = self._full_resting(A, b, c)
+            a = A @ f + b
             F = f.reshape(k, 3)
             # impending slip at the static cone boundary cannot be represented by the
-            # fast path's statuses; the full solver answers again next time
-            self._active[c.idx] = np.where(F[:, 0] > 0, np.where(c.slide, 2, 1), 0)
-            self._active_version += 1
+            # active-set statuses; the full solver answers again next time
+            st = np.where(F[:, 0] > 0, np.where(c.slide, 2, 1), 0)
+        self._active[c.idx] = st
         if diag:
-            if a is None:
-                a = A @ f + b
             self._record_residuals(f, a, c.slide, c.any_slide)
         self._prev_force[c.idx] = f.reshape(k, 3)
         self.stats.lcp_time += time.perf_counter() - t0
         return f
 
     def _record_residuals(self, f: np.ndarray, a: np.ndarray, slide: np.ndarray, c_any_slide: bool) -> None:
-        """Record the eq. 3.6–3.7 residuals of :func:`lcp.friction_residuals` kept in the
-        statistics (Signorini on f and a, complementarity, cone; μ = 0 for sliding contacts,
-        whose tangential force rides on the normal one)."""
+        """Record the eq. 3.6–3.7 residuals kept in the statistics (Signorini on f and a,
+        complementarity, cone; μ = 0 for sliding contacts, whose tangential force rides on
+        the normal one)."""
         fn, ft1, ft2 = f[0::3], f[1::3], f[2::3]
         an = a[0::3]
-        st = self.stats
-        st.signorini_f.append(max(0.0, -float(fn.min())))
-        st.signorini_a.append(max(0.0, -float(an.min())))
-        st.complementarity.append(float(np.abs(fn * an).max()))
         ft_norm = np.sqrt(ft1 * ft1 + ft2 * ft2)
         mu_fn = self.mu_s * fn
         if c_any_slide:
             mu_fn = np.where(slide, 0.0 * fn, mu_fn)
-        st.cone.append(max(0.0, float((ft_norm - mu_fn).max())))
-
-    def _try_active_set(self, A: np.ndarray, b: np.ndarray, status: np.ndarray) -> tuple:
-        """One equality solve on the guessed active set; None unless eqs. 3.6–3.7 all hold.
-
-        Clamped rows E (all three rows of a sticking contact, the normal row of a sliding
-        one) satisfy A_EE f_E = −b_E; the (PSD, possibly singular) block is solved with a
-        tiny Tikhonov shift (1e-13 of its diagonal), which gives the minimum-norm split of
-        redundant forces to ~1e-13 relative — the answer is then *verified* against every
-        condition of eqs. 3.6–3.7 and rejected if any fails.
-        """
-        k = status.size
-        e, e_ix, not_free, not_stick = self._active_rows(status)
-        f = np.zeros(3 * k)
-        if e.size:
-            sub = A[e_ix]
-            shift = 1e-13 * float(sub.trace()) / e.size
-            sub.flat[:: e.size + 1] += shift
-            f[e] = solve(sub, -b[e])
-        a = A @ f + b
-        tol = 1e-9 * float(abs(b).max())
-        F = f.reshape(k, 3)
-        fn = F[:, 0]
-        fscale = 1e-9 * float(abs(fn).max())
-        if e.size and float(abs(a[e]).max()) > tol:
-            return None, None
-        ok = fn >= -fscale
-        ok &= not_free | (a[0::3] >= -tol)
-        ok &= not_stick | (np.hypot(F[:, 1], F[:, 2]) <= self.mu_s * fn * (1 + 1e-12) + fscale)
-        if not ok.all():
-            return None, None
-        return f, a
-
-    def _active_rows(self, status: np.ndarray) -> tuple:
-        """Clamped rows E of the status guess (all three rows of a sticking contact, the
-        normal row of a sliding one), the index of the block A_EE, and status ≠ 0, status ≠ 1.
-        Kept per status: the guess rarely changes from one solve to the next."""
-        key = status.tobytes()
-        hit = self._rows_cache.get(key)
-        if hit is None:
-            k = status.size
-            mask = np.empty((k, 3), dtype=bool)
-            mask[:, 0] = status > 0
-            mask[:, 1] = mask[:, 2] = status == 1
-            e = np.flatnonzero(mask.ravel())
-            if len(self._rows_cache) >= 256:
-                self._rows_cache.clear()
-            hit = self._rows_cache[key] = (e, np.ix_(e, e), status != 0, status != 1)
-        return hit
+        self.stats.record_residuals(
+            {
+                "signorini_f": max(0.0, -float(fn.min())),
+                "signorini_a": max(0.0, -float(an.min())),
+                "complementarity": float(np.abs(fn * an).max()),
+                "cone": max(0.0, float((ft_norm - mu_fn).max())),
+            }
+        )
 
     def _full_resting(self, A: np.ndarray, b: np.ndarray, c: _Contacts) -> np.ndarray:
+        """The general resting solve when no active-set guess verifies (rare)."""
         k = c.idx.size
+        self.stats.full_solves += 1
         if np.all(c.slide):
             # all contacts sliding: normal-only LCP with the non-symmetric A' (eq. 3.6 + μ_d)
             An = A[0::3, 0::3]
-            res = lcp.solve_lcp(An, b[0::3], method=self.method)
+            res = pivoting.solve_lcp(An, b[0::3], method=self.method)
             self.stats.lcp_pivots += res.pivots
             if not res.ok:
                 self.stats.lcp_failures += 1
@@ -595,13 +561,12 @@ class Stepper:
             return f
         mu = np.where(c.slide, 0.0, self.mu_s)
         warm = self._prev_force[c.idx].reshape(-1)
-        res = lcp.solve_friction_cone(A, b, mu, tol=1e-12, max_iter=60, restart_after=30, warm_start=warm)
+        res = cone.solve_friction_cone(A, b, mu, tol=1e-12, max_iter=60, restart_after=30, warm_start=warm)
         self.stats.pgs_sweeps += res.iterations
         if not res.converged:
-            # the iterative cone solver stalls on some rank-deficient resting sets (e.g. four
-            # coplanar corners with a small approaching velocity): fall back to pivoting on a
-            # 16-facet friction pyramid (Lemke), exact for sticking contacts
-            pyr = lcp.solve_friction_pyramid(A, b, mu, n_facets=16)
+            # fall back to pivoting on a 16-facet friction pyramid (Lemke), exact for
+            # sticking contacts
+            pyr = cone.solve_friction_pyramid(A, b, mu, n_facets=16)
             self.stats.cone_fallbacks += 1
             if pyr.ok:
                 res = pyr
@@ -623,10 +588,14 @@ class Stepper:
             return s, None
         t0 = time.perf_counter()
         idx = inband
+        if self.reduce and self.e == 0.0 and idx.size > 3:
+            # exact for e = 0: the post-impact velocity is affine in the contact position
+            idx = kernel.support_hull(self.body.nodes, idx, 1e-9 * self._size)
         r = r_all[idx]
         k = idx.size
-        gm, _ = self._jacobians(r, np.zeros(k, bool), np.zeros((k, 3)))
-        A = self._delassus(gm, gm, s.R)
+        vn = vel[idx, 0]
+        gm, _ = self._jacobians(r)
+        A = gm @ self._inv_mass(s.R) @ gm.T
         bvel = vel[idx].reshape(-1)
         # restitution: w = v⁺ + e v⁻ ≥ 0 for approaching contacts
         q = bvel.copy()
@@ -634,18 +603,24 @@ class Stepper:
         q[0::3] += np.where(approaching, self.e * vn, 0.0)
         prev = self._prev_force[idx].reshape(-1) * dt
         if self.mu_s > 0:
-            res = lcp.solve_friction_cone(A, q, self.mu_s, tol=1e-13, max_iter=20000, warm_start=prev)
-            self.stats.pgs_sweeps += res.iterations
-            if not res.converged:
-                self.stats.lcp_failures += 1
-            j = res.f.copy()
+            # the impact cone (velocity form of eqs. 3.6–3.7 with μ_s): active-set guess
+            # "approaching contacts stick, the others separate", verified; else the
+            # iterative cone solver
+            guess = np.where(approaching, 1, 0).astype(np.int64)
+            ok, j, _, _ = kernel.active_set_solve(A, q, guess, np.full(k, self.mu_s), 0.0, k + 1)
+            if not ok:
+                res = cone.solve_friction_cone(A, q, self.mu_s, tol=1e-13, max_iter=20000, warm_start=prev)
+                self.stats.pgs_sweeps += res.iterations
+                if not res.converged:
+                    self.stats.lcp_failures += 1
+                j = res.f.copy()
         else:
             j = np.zeros(3 * k)
         # eq. 3.5 on the normal impulses, tangential impulses held fixed; selection among the
         # (for e = 0 and redundant contacts) non-unique solutions
         qn = q[0::3] + A[0::3][:, np.r_[1 : 3 * k : 3, 2 : 3 * k : 3]] @ np.concatenate([j[1::3], j[2::3]])
         ref = prev[0::3] if self.selection == "closest_to_previous" else None
-        resn = lcp.solve_lcp_min_norm(A[0::3, 0::3], qn, reference=ref, method=self.method)
+        resn = selection.solve_lcp_min_norm(A[0::3, 0::3], qn, reference=ref, method=self.method)
         self.stats.lcp_pivots += resn.pivots
         jn_cone = j[0::3].copy()
         if resn.ok:
@@ -662,23 +637,24 @@ class Stepper:
                 j[0::3] = np.maximum(resn.z, 0.0)
         vpost = A @ j + bvel
         jt = j.reshape(k, 3)
-        self.stats.record_residuals(lcp.friction_residuals(j, A @ j + q, np.full(k, self.mu_s)))
+        self.stats.record_residuals(cone.friction_residuals(j, A @ j + q, np.full(k, self.mu_s)))
         # velocity jump: Δu̇_cm = Σ J / m, Δl = Σ r × J
         Jw = jt @ BASIS  # (k, 3) world impulse vectors
-        self._last = None
-        self._pred = None
+        self._pred[0] = 0.0
         s2 = s.copy()
         s2.v = s.v + Jw.sum(axis=0) / self.body.mass
         s2.l = s.l + cross(r, Jw).sum(axis=0)
         w2 = self.omega(s2)
+        self._prev_force[inband] = 0.0
         self._prev_force[idx] = jt / max(dt, 1e-300)
+        self._active[inband] = 0
         self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
-        self._active_version += 1
         self.stats.lcp_time += time.perf_counter() - t0
         vmin = float(vn.min())
         info = {
             "v_n_min": vmin,
-            "nodes": int(k),
+            "nodes": int(inband.size),
+            "hull_nodes": int(k),
             "impulse_nodes": int(np.sum(jt[:, 0] > 0)),
             "omega_before": float(np.linalg.norm(w)),
             "omega_after": float(np.linalg.norm(w2)),
@@ -687,77 +663,136 @@ class Stepper:
         }
         return s2, info
 
+    @staticmethod
+    def _jacobians(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Contact Jacobian rows (3k, 6) = [d, r × d] per (n, x, y) = (ez, ex, ey)."""
+        k = r.shape[0]
+        gm = np.zeros((k, 3, 6))
+        gm[:, 0, 2] = 1.0
+        gm[:, 1, 0] = 1.0
+        gm[:, 2, 1] = 1.0
+        rx, ry, rz = r[:, 0], r[:, 1], r[:, 2]
+        gm[:, 0, 3], gm[:, 0, 4] = ry, -rx
+        gm[:, 1, 4], gm[:, 1, 5] = rz, -ry
+        gm[:, 2, 3], gm[:, 2, 5] = -rz, rx
+        gm = gm.reshape(3 * k, 6)
+        return gm, gm
+
+    def _inv_mass(self, R: np.ndarray) -> np.ndarray:
+        """M⁻¹ = diag(I₃/m, I_world⁻¹) (6, 6)."""
+        w = np.zeros((6, 6))
+        w[:3, :3] = np.eye(3) / self.body.mass
+        w[3:, 3:] = self.inv_inertia_world(R)
+        return w
+
     # ------------------------------------------------------------------ one step
     def _contacts(self, s: State, t: float, dt: float) -> _Contacts:
         _, gaps, vel, _ = self.node_kinematics(s, t)
-        idx = ((gaps <= self.eps) & (vel[:, 0] <= self.v_sep)).nonzero()[0]
-        v = vel[idx]
-        vt = np.hypot(v[:, 1], v[:, 2])
-        slide = (vt > self.v_slip) & (self.mu_d > 0)
-        any_slide = bool(slide.any())
-        sdir = np.zeros((idx.size, 3))
-        if any_slide:
-            sdir[slide] = (v[slide, 1:2] * BASIS[1] + v[slide, 2:3] * BASIS[2]) / vt[slide, None]
-        # velocity stabilisation: null the small approaching normal velocity of resting
-        # contacts and the tangential velocity of sticking ones over this step
-        # (velocities below 1e-8 m/s are left alone: round-off, and it lets the end-of-step
-        # forces of the previous step be reused as this step's start forces)
-        vv = np.where(np.abs(v) > 1e-8, v, 0.0)
-        stab = vv / dt
-        stab[:, 0] = np.minimum(vv[:, 0], 0.0) / dt
-        if any_slide:
-            stab[slide, 1:] = 0.0
+        idx, slide, sdir, stab = kernel.contact_set(
+            gaps, vel, self.body.nodes, self.eps, self.v_sep, self.v_slip, self.mu_d, dt, self.reduce
+        )
         return _Contacts(
             idx=idx,
             slide=slide,
             sdir=sdir,
-            stab=stab.reshape(-1),
+            stab=stab,
             nodes=self.body.nodes[idx],
-            any_slide=any_slide,
+            any_slide=bool(slide.any()),
         )
 
     def step(self, s0: State, t0: float, dt: float) -> tuple[State, int]:
         """Constant-average-acceleration step t0 → t0 + dt with direct iteration.
 
+        Runs :func:`kernel.step` (``compiled``); when it reports that an active-set guess
+        failed, the step is repeated here with the general resting solver.
+
         Raises
         ------
         StepRejected
-            if a node ends the step deeper than ε below the pedestal surface.
+            if a node ends the step deeper than ε below the pedestal surface (unless
+            ``accept_any`` is set).
         """
-        m = self.body.mass
-        F1 = tau1 = _ZERO3
         t1 = t0 + dt
         tl0 = t0 + 1e-9 * dt  # one-sided load values at the step ends (pulse jumps)
         tl1 = t1 - 1e-9 * dt
-        c = self._contacts(s0, t0, dt)
-        last = self._last
-        reuse = (
-            last is not None
-            and last[0] == t0
-            and not c.stab.any()
-            and _same(last[1], c.idx)
-            and _same(last[2], c.slide)
-            # np.allclose(load, previous load, rtol=1e-9, atol=1e-12) on plain floats
-            and all(
-                abs(x - y) <= 1e-12 + 1e-9 * abs(y)
-                for x, y in zip(self._load(tl0).tolist(), last[5].tolist(), strict=True)
+        if self.compiled:
+            prm = self._prm
+            prm[kernel.P_T0] = t0
+            prm[kernel.P_DT] = dt
+            prm[kernel.P_NO_PEN] = 1.0 if self.accept_any else 0.0
+            ext = self._ext
+            ext[0] = self._load(tl0)
+            ext[1] = self._load(tl1)
+            if self.ped.kinematics is not None:
+                ext[2], ext[3], _ = self.ped.motion(t0)
+                ext[4] = self.ped.motion(tl0)[2]
+                ext[5] = self.ped.motion(tl1)[2]
+                ext[6] = self.ped.motion(t1)[0]
+            out = np.empty(18)
+            gaps = np.empty(self.body.nodes.shape[0])
+            info = self._info
+            t_lcp = time.perf_counter()
+            code = kernel.step(
+                s0.buf,
+                prm,
+                ext,
+                self.body.inertia_inv,
+                self.body.nodes,
+                self._active,
+                self._prev_force,
+                self._pred,
+                self._pred_idx,
+                out,
+                gaps,
+                info,
             )
-        )
-        if reuse:
-            # the end-of-step forces of the previous step, at the same state and time
-            F0, tau0 = last[3], last[4]
-            self.stats.force_reuse += 1
-        else:
-            F0, tau0, _ = self.contact_forces(s0, tl0, c, diag=True)
+            st = self.stats
+            if code != kernel.STEP_GENERAL:
+                st.kernel_time += time.perf_counter() - t_lcp
+                its, conv, solves, fast, cay, ncont, gmin, f0, f1, f2, q0, q1, q2, *_rest = info.tolist()
+                its = int(its)
+                st.kernel_steps += 1
+                st.lcp_solves += int(solves)
+                st.lcp_fast_path += int(fast)
+                st.cayley_projections += int(cay)
+                st.iterations_total += its
+                if its > st.iterations_max:
+                    st.iterations_max = its
+                if not conv:
+                    st.iteration_nonconverged += 1
+                if info[kernel.I_NRES]:
+                    st.signorini_f.append(info[kernel.I_SIG_F])
+                    st.signorini_a.append(info[kernel.I_SIG_A])
+                    st.complementarity.append(info[kernel.I_COMPL])
+                    st.cone.append(max(0.0, info[kernel.I_CONE]))
+                self.last_gaps = gaps
+                self.last_gmin = gmin
+                self.last_ncontacts = int(ncont)
+                self.last_force = np.array((f0, f1, f2))
+                self.last_torque = np.array((q0, q1, q2))
+                self.last_omega = _rest[:3]
+                if code == kernel.STEP_REJECTED:
+                    raise StepRejected(gmin)
+                return State.from_buf(out), its
+            st.general_steps += 1
+        return self._step_general(s0, t0, dt, tl0, tl1)
+
+    def _step_general(self, s0: State, t0: float, dt: float, tl0: float, tl1: float) -> tuple[State, int]:
+        """:meth:`step` in NumPy with the general resting solver (same arithmetic as
+        :func:`kernel.step`)."""
+        m = self.body.mass
+        t1 = t0 + dt
+        c = self._contacts(s0, t0, dt)
+        F0, tau0, _ = self.contact_forces(s0, tl0, c, diag=True)
         w0 = self.omega(s0)
         W0R0 = skew(w0) @ s0.R
         # predictor: trapezoid with the end forces extrapolated linearly from the previous
         # step (explicit Euler after an impact, a breakpoint or a change of step)
         Fp, taup = F0, tau0
-        prev = self._pred
-        if prev is not None and prev[0] == t0 and prev[1] == dt and _same(prev[4], c.idx):
-            Fp, taup = 2.0 * F0 - prev[2], 2.0 * tau0 - prev[3]
-        self._pred = (t1, dt, F0, tau0, c.idx)
+        pr, pidx = self._pred, self._pred_idx
+        k = c.idx.size
+        if pr[0] > 0 and pr[1] == t0 and pr[2] == dt and pidx[0] == k and _same(pidx[1 : 1 + k], c.idx):
+            Fp, taup = 2.0 * F0 - pr[3:6], 2.0 * tau0 - pr[6:9]
         vp = s0.v + 0.5 * dt * (F0 + Fp) / m
         lp = s0.l + 0.5 * dt * (tau0 + taup)
         s1 = State(s0.x + 0.5 * dt * (s0.v + vp), vp, cayley(dt * w0) @ s0.R, lp)
@@ -767,8 +802,10 @@ class Stepper:
         a0 = self._load(tl0)
         vscale = max(math.sqrt(s0.v.dot(s0.v)), math.sqrt(a0.dot(a0)) * dt, 1e-300)
         lscale = max(math.sqrt(s0.l.dot(s0.l)), self._lref * vscale, 1e-300)
-        for its in range(1, self.iterations + 1):
-            F1, tau1, _ = self.contact_forces(s1, tl1, c, diag=reuse and its == 1)
+        F1, tau1 = F0, tau0
+        for it in range(1, self.iterations + 1):
+            its = it
+            F1, tau1, _ = self.contact_forces(s1, tl1, c)
             v1 = s0.v + 0.5 * dt * (F0 + F1) / m  # eq. 3.2, constant average acceleration
             x1 = s0.x + 0.5 * dt * (s0.v + v1)  # eq. 3.1
             l1 = s0.l + 0.5 * dt * (tau0 + tau1)  # eq. 3.4
@@ -791,15 +828,21 @@ class Stepper:
         self.stats.iterations_max = max(self.stats.iterations_max, its)
         if not converged:
             self.stats.iteration_nonconverged += 1
+        pr[0], pr[1], pr[2] = 1.0, t1, dt
+        pr[3:6], pr[6:9] = F0, tau0
+        pidx[0] = k
+        pidx[1 : 1 + k] = c.idx
         # penetration check at the end of the step
         r = self.body.nodes @ s1.R.T
         d, _, _ = self.ped.motion(t1)
         gaps = self.ped.gaps(s1.x + r, d)
         gmin = float(gaps.min())
         self.last_gaps = gaps
-        if gmin < -self.eps:
+        self.last_gmin = gmin
+        self.last_ncontacts = int(np.sum(gaps <= self.eps))
+        self.last_omega = self.omega(s1)
+        if gmin < -self.eps and not self.accept_any:
             raise StepRejected(gmin)
-        self._last = (t1, c.idx, c.slide, F1, tau1, self._load(tl1).copy())
         return s1, its
 
     def penetration(self, s: State, t: float) -> float:

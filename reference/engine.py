@@ -26,7 +26,11 @@ import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
 
-__all__ = ["ReferenceEngine", "basal_nodes"]
+__all__ = ["MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
+
+#: a step accepted after the step-back limit is reported as an event (the first this many
+#: of a run; ``min_timestep_hits`` counts them all)
+MAX_ACCEPT_EVENTS = 20
 
 
 def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
@@ -34,7 +38,8 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
 
     ``nodes = "scene"``: the nodes the scene compiler chose from the scenario's
     ``[model] basal_nodes`` (default: the convex-hull vertices below the COM), recorded in the
-    scene's reductions.
+    scene's reductions; with ``side_nodes`` (default) the rock's other convex-hull vertices
+    are added so that a rock rotated far (lying on its side) still meets the pedestal.
     ``nodes = "hull"``: the convex-hull vertices of the rock (a rigid rock on a flat pedestal
     can only touch it with hull vertices), the ``max_nodes`` lowest ones kept.
     ``nodes = "grid"``: the flat base (the hull vertices within 1e-9·size of the lowest point)
@@ -48,7 +53,10 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
     kind = settings["nodes"]
     nmax = int(settings["max_nodes"])
     if kind == "scene":
-        return np.asarray(scene.basal_nodes, dtype=float)
+        nodes = np.asarray(scene.basal_nodes, dtype=float)
+        if settings.get("side_nodes", True):
+            nodes = _with_side_nodes(nodes, mesh)
+        return nodes
     if kind == "vertices":
         pts = np.unique(np.asarray(mesh.vertices, dtype=float), axis=0)
     else:
@@ -70,6 +78,32 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
         )
     order = np.lexsort((pts[:, 1], pts[:, 0], pts[:, 2]))
     return pts[order][:nmax]
+
+
+def _with_side_nodes(nodes: np.ndarray, mesh: Any) -> np.ndarray:
+    """``nodes`` (N, 3) plus the rock's convex-hull vertices that are not among them (m).
+
+    The basal nodes carry the rocking; the other hull vertices only matter at large
+    rotations (a toppled rock lying on its side: a rigid rock on a flat pedestal touches it
+    with hull vertices only). Without them a rock rotated past 90° would pass through the
+    pedestal."""
+    from pbr_xval.geometry.stability import hull_vertices
+
+    hull = np.asarray(hull_vertices(np.asarray(mesh.vertices, dtype=float)), dtype=float)
+    if nodes.size == 0:
+        return hull
+    tol = 1e-9 * max(float(np.ptp(hull)), 1e-300)
+    d2 = (
+        ((hull[:, None, :] - nodes[None, :, :]) ** 2).sum(axis=2).min(axis=1)
+        if nodes.shape[0] * hull.shape[0] <= 4_000_000
+        else None
+    )
+    if d2 is None:
+        from scipy.spatial import cKDTree
+
+        d2 = cKDTree(nodes).query(hull)[0] ** 2
+    extra = hull[d2 > tol * tol]
+    return np.vstack([nodes, extra]) if extra.size else nodes
 
 
 def _step_starts(
@@ -162,6 +196,12 @@ class ReferenceEngine(EngineBase):
                 # velocity change per step are both below this (m/s) is at rest for good:
                 # the state is held (exact for a rigid rock) to the end; 0 disables
                 "rest_velocity": 1e-7,
+                # run the step in the compiled kernel (pbr_xval.reference.kernel); False: NumPy
+                "compiled": True,
+                # reduce each contact set to its support hull (exact, see kernel.support_hull)
+                "support_hull": True,
+                # nodes = "scene": add the rock's other hull vertices (large rotations)
+                "side_nodes": True,
             }
         }
 
@@ -245,6 +285,7 @@ class ReferenceEngine(EngineBase):
         rest_v = float(s["rest_velocity"])
         held_from = None
         contacts_max = 0
+        accepted_pen_max = 0.0
         next_out = 0.0
         guard = self._near_topple_guard(scene)
         wall0 = time.perf_counter()
@@ -272,7 +313,9 @@ class ReferenceEngine(EngineBase):
                 h = min(dt_nom, t_next_bp - t)
                 if isinstance(load, _StepLoad):
                     load.at_step(t)
-                state, info = stepper.resolve_impacts(state, t, h)
+                info = None
+                if not stepper.compiled or stepper.impact_pending(state, t):
+                    state, info = stepper.resolve_impacts(state, t, h)
                 if info is not None:
                     stepper.stats.impacts += 1
                     if np.isfinite(info["ratio"]):
@@ -283,14 +326,35 @@ class ReferenceEngine(EngineBase):
                     try:
                         new, _ = stepper.step(state, t, h)
                         break
-                    except StepRejected:
+                    except StepRejected as rej:
                         if backs >= max_back or h * 0.5 < min_dt:
+                            # deviation from the paper (which halves Δt until no node is deeper
+                            # than ε): after the step-back limit the step is accepted with its
+                            # penetration, counted and reported as an event
                             stepper.stats.min_timestep_hits += 1
-                            stepper.eps, eps_saved = math.inf, stepper.eps
+                            stepper.accept_any = True
                             try:
                                 new, _ = stepper.step(state, t, h)
                             finally:
-                                stepper.eps = eps_saved
+                                stepper.accept_any = False
+                            pen_acc = max(0.0, -float(stepper.last_gmin))
+                            accepted_pen_max = max(accepted_pen_max, pen_acc)
+                            if stepper.stats.min_timestep_hits <= MAX_ACCEPT_EVENTS:
+                                rec.events.append(
+                                    Event(
+                                        "step_accepted_penetrating",
+                                        t,
+                                        {
+                                            "dt_s": h,
+                                            "stepbacks": backs,
+                                            "penetration_m": pen_acc,
+                                            "rejected_gap_m": float(rej.args[0])
+                                            if rej.args
+                                            else float("nan"),
+                                            "epsilon_m": stepper.eps,
+                                        },
+                                    )
+                                )
                             break
                         backs += 1
                         stepper.stats.stepbacks += 1
@@ -298,9 +362,9 @@ class ReferenceEngine(EngineBase):
                 state = new
                 t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
                 stepper.stats.steps += 1
-                gaps = stepper.last_gaps
-                contacts_max = max(contacts_max, int((gaps <= stepper.eps).sum()))
-                pen = max(0.0, -float(gaps.min()))
+                n_cont = stepper.last_ncontacts
+                contacts_max = max(contacts_max, n_cont)
+                pen = max(0.0, -float(stepper.last_gmin))
                 stepper.stats.max_penetration = max(stepper.stats.max_penetration, pen)
                 com_rel = self._rel_com(state, pedestal, t)
                 last = t >= duration - 1e-12 * dt_nom
@@ -318,8 +382,8 @@ class ReferenceEngine(EngineBase):
                         t,
                         com_rel,
                         state.R,
-                        stepper.omega(state),
-                        n_contacts=int(np.sum(gaps <= stepper.eps)),
+                        stepper.last_omega,
+                        n_contacts=n_cont,
                         penetration=pen,
                         force=last,
                     )
@@ -338,7 +402,7 @@ class ReferenceEngine(EngineBase):
                             self._rel_com(state, pedestal, tt),
                             state.R,
                             stepper.omega(state),
-                            n_contacts=int(np.sum(gaps <= stepper.eps)),
+                            n_contacts=n_cont,
                             penetration=pen,
                             force=tt >= duration - 1e-12 * dt_nom,
                         )
@@ -357,6 +421,7 @@ class ReferenceEngine(EngineBase):
             lcp_time_fraction=diag["lcp_time_s"] / wall if wall > 0 else float("nan"),
             held_at_rest_from_s=held_from,
             contacts_max=contacts_max,
+            accepted_penetration_max_m=accepted_pen_max,
         )
         traj = rec.trajectory(self.name, s, self.versions(), diag)
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
@@ -393,5 +458,7 @@ class ReferenceEngine(EngineBase):
 
     @staticmethod
     def _rel_com(state: Any, pedestal: Any, t: float) -> np.ndarray:
+        if pedestal.kinematics is None:
+            return state.x
         d, _, _ = pedestal.motion(t)
         return state.x - d

@@ -1,0 +1,525 @@
+"""Resting contact with Coulomb friction (seed paper, eqs. 3.6–3.7): iterative cone solver.
+
+The paper extends Baraff's (1994) 2-D friction pivoting to 3-D; the reference solver does
+not (see the deviations in :mod:`pbr_xval.reference`).  Its resting forces come first from
+the verified active-set solve of :func:`pbr_xval.reference.kernel.active_set_solve`; this
+module holds the general solvers used when that fails:
+
+:func:`solve_friction_cone`
+    exact circular Coulomb cone per contact, block projected Gauss–Seidel with exact
+    per-contact solves and a contact-mode polish;
+:func:`solve_friction_pyramid`
+    the polyhedral (pyramid) approximation of the same problem cast as one LCP and solved
+    by :func:`pbr_xval.reference.pivoting.lemke` (Stewart–Trinkle form), the fallback;
+:func:`friction_residuals`
+    the violation of every condition of eqs. 3.6–3.7 (the diagnostics).
+
+References
+----------
+D. E. Stewart, J. C. Trinkle, "An implicit time-stepping scheme for rigid body dynamics
+with inelastic collisions and Coulomb friction", IJNME 1996 (pyramid LCP).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pbr_xval.reference.pivoting import lemke
+
+__all__ = ["FrictionResult", "friction_residuals", "solve_friction_cone", "solve_friction_pyramid"]
+
+
+@dataclass
+class FrictionResult:
+    """Resting-contact forces with Coulomb friction (eqs. 3.6–3.7).
+
+    Attributes
+    ----------
+    f : ndarray, shape (3k,)
+        Contact forces, per contact ``(f_n, f_x, f_y)``.
+    a : ndarray, shape (3k,)
+        Relative accelerations ``A f + b``, per contact ``(a_n, a_x, a_y)``.
+    iterations : int
+        Gauss–Seidel sweeps (or Lemke pivots for the pyramid variant).
+    converged : bool
+        Stopping criterion met within the iteration cap.
+    residuals : dict of str to float
+        See :func:`friction_residuals`.
+    mu : ndarray, shape (k,)
+        Friction coefficients used.
+    method : str
+        ``"pgs_cone"`` or ``"lemke_pyramid"``.
+    status : str
+        ``"ok"`` when converged, otherwise ``"max_iter"`` / an LCP status.
+    """
+
+    f: np.ndarray
+    a: np.ndarray
+    iterations: int
+    converged: bool
+    residuals: dict[str, float]
+    mu: np.ndarray
+    method: str
+    status: str = "ok"
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Normal forces, shape (k,)."""
+        return self.f[0::3].copy()
+
+    @property
+    def tangential(self) -> np.ndarray:
+        """Tangential forces, shape (k, 2)."""
+        return self.f.reshape(-1, 3)[:, 1:].copy()
+
+    @property
+    def ok(self) -> bool:
+        """True when the solve converged."""
+        return self.converged
+
+
+def _mu_vector(mu: float | np.ndarray, k: int) -> np.ndarray:
+    mu_arr = np.asarray(mu, dtype=float).reshape(-1)
+    if mu_arr.size == 1:
+        mu_arr = np.full(k, float(mu_arr[0]))
+    if mu_arr.size != k or np.any(mu_arr < 0):
+        raise ValueError(f"mu must be a non-negative scalar or have {k} entries")
+    return mu_arr
+
+
+def friction_residuals(f: np.ndarray, a: np.ndarray, mu: np.ndarray) -> dict[str, float]:
+    """Violation of eqs. 3.6–3.7 (all zero at an exact solution).
+
+    Parameters
+    ----------
+    f, a : ndarray, shape (3k,)
+        Forces and accelerations, per contact ``(n, x, y)``.
+    mu : ndarray, shape (k,)
+        Friction coefficients.
+
+    Returns
+    -------
+    dict of str to float
+        ``signorini_f`` = max(0, -min f_n); ``signorini_a`` = max(0, -min a_n);
+        ``complementarity`` = max |f_n a_n|; ``cone`` = max(0, |f_t| - mu f_n);
+        ``friction_complementarity`` = max |a_t| (mu f_n - |f_t|) (sliding => maximal);
+        ``dissipation`` = max (f_t.a_t + |f_t||a_t|) (zero iff f_t opposes a_t).
+    """
+    F = f.reshape(-1, 3)
+    Acc = a.reshape(-1, 3)
+    if F.shape[0] == 0:
+        keys = (
+            "signorini_f",
+            "signorini_a",
+            "complementarity",
+            "cone",
+            "friction_complementarity",
+            "dissipation",
+        )
+        return dict.fromkeys(keys, 0.0)
+    fn, ft = F[:, 0], F[:, 1:]
+    an, at = Acc[:, 0], Acc[:, 1:]
+    ft_norm = np.linalg.norm(ft, axis=1)
+    at_norm = np.linalg.norm(at, axis=1)
+    return {
+        "signorini_f": float(max(0.0, -fn.min())),
+        "signorini_a": float(max(0.0, -an.min())),
+        "complementarity": float(np.max(np.abs(fn * an))),
+        "cone": float(max(0.0, np.max(ft_norm - mu * fn))),
+        "friction_complementarity": float(np.max(np.abs(at_norm * (mu * fn - ft_norm)))),
+        "dissipation": float(max(0.0, np.max(np.sum(ft * at, axis=1) + ft_norm * at_norm))),
+    }
+
+
+def _disc_local_solve(lam: np.ndarray, Q: np.ndarray, c: np.ndarray, radius: float) -> np.ndarray:
+    """Exact solution of the single-contact tangential problem.
+
+    Find ``f_t`` with ``a_t = Att f_t + c``, ``|f_t| <= radius`` and either ``a_t = 0``
+    (stick) or ``f_t = -radius a_t/|a_t|`` (slide), where ``Att = Q diag(lam) Q^T``.
+    Sticking is tried first; if it leaves the disc, ``f_t(g) = -(Att + g I)^-1 c``
+    with the unique ``g > 0`` such that ``|f_t(g)| = radius`` (the trust-region secular
+    equation), solved by safeguarded Newton on ``1/|f(g)| - 1/radius``
+    (Moré–Sorensen); then ``a_t = -g f_t`` opposes ``f_t``.
+
+    Parameters
+    ----------
+    lam : ndarray, shape (2,)
+        Eigenvalues of ``Att`` (clipped at 0), ascending.
+    Q : ndarray, shape (2, 2)
+        Eigenvectors of ``Att``.
+    c : ndarray, shape (2,)
+        Tangential acceleration at ``f_t = 0``.
+    radius : float
+        ``mu f_n``.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        Tangential force.
+    """
+    if radius <= 0.0:
+        return np.zeros(2)
+    ct = Q.T @ c
+    c_norm = float(np.hypot(ct[0], ct[1]))
+    if c_norm == 0.0:
+        return np.zeros(2)
+    lam_max = max(float(lam[1]), 1e-300)
+    if lam[0] > 1e-14 * lam_max:
+        ft = -(ct / lam)
+        if np.hypot(ft[0], ft[1]) <= radius:
+            return Q @ ft
+    lo, hi = 0.0, c_norm / radius  # |f(hi)| <= |c| / hi = radius
+    g = 0.0 if lam[0] > 1e-14 * lam_max else 0.5 * hi
+    for _ in range(100):
+        d = lam + g
+        fk = ct / d
+        nf = float(np.hypot(fk[0], fk[1]))
+        phi = 1.0 / nf - 1.0 / radius
+        if phi < 0.0:
+            lo = g
+        else:
+            hi = g
+        if abs(phi) <= 1e-15 / radius or hi - lo <= 1e-15 * hi:
+            break
+        dphi = float(np.sum(ct * ct / d**3)) / nf**3
+        g_new = g - phi / dphi if dphi > 0 else 0.5 * (lo + hi)
+        if not (lo < g_new < hi):
+            g_new = 0.5 * (lo + hi)
+        g = g_new
+    ft = -(ct / (lam + g))
+    ft *= radius / float(np.hypot(ft[0], ft[1]))
+    return Q @ ft
+
+
+def _friction_merit(f: np.ndarray, a: np.ndarray, mu: np.ndarray, fs: float, acs: float) -> float:
+    """Largest residual of :func:`friction_residuals`, made dimensionless."""
+    r = friction_residuals(f, a, mu)
+    return max(
+        r["signorini_f"] / fs,
+        r["cone"] / fs,
+        r["signorini_a"] / acs,
+        r["complementarity"] / (fs * acs),
+        r["friction_complementarity"] / (fs * acs),
+        r["dissipation"] / (fs * acs),
+    )
+
+
+def _mode_polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """Least-change correction that enforces the current contact modes exactly.
+
+    From the iterate, each contact is *open* (``f_n == 0``: no unknowns),
+    *sticking* (``|f_t| < mu f_n``: unknowns ``f``, equations ``a = 0``) or
+    *sliding* (``|f_t| = mu f_n``: unknown ``f_n`` with ``f_t = mu f_n s``, ``s`` the
+    current direction frozen; equation ``a_n = 0``).  The linear equations are solved
+    for the minimum-norm change of the unknowns (``lstsq``); contacts whose normal
+    force would become negative are opened and the solve repeated.  This removes the slow
+    drift of Gauss–Seidel along null-space directions of a singular ``A``.  The caller
+    accepts the candidate only if it lowers the residual merit.
+
+    Parameters
+    ----------
+    A : ndarray, shape (3k, 3k)
+    b : ndarray, shape (3k,)
+    f : ndarray, shape (3k,)
+        Current forces.
+    mu : ndarray, shape (k,)
+
+    Returns
+    -------
+    ndarray, shape (3k,)
+        Candidate forces.
+    """
+    k = f.size // 3
+    is_open = f.reshape(-1, 3)[:, 0] <= 0.0
+    cand = f.copy()
+    for _ in range(k):
+        cand = _mode_polish_once(A, b, f, mu, is_open)
+        fn = cand.reshape(-1, 3)[:, 0]
+        neg = (fn < 0.0) & ~is_open
+        if not np.any(neg):
+            break
+        is_open |= neg  # contacts pulled into tension open; re-solve without them
+    return cand
+
+
+def _mode_polish_once(
+    A: np.ndarray, b: np.ndarray, f: np.ndarray, mu: np.ndarray, is_open: np.ndarray
+) -> np.ndarray:
+    """One least-change solve of :func:`_mode_polish` with the open set fixed."""
+    k = f.size // 3
+    F = f.reshape(-1, 3)
+    cols: list[np.ndarray] = []
+    rows: list[int] = []
+    base = f.copy()
+    for i in range(k):
+        fn = F[i, 0]
+        if is_open[i]:
+            base[3 * i : 3 * i + 3] = 0.0
+            continue
+        ft = F[i, 1:]
+        nt = float(np.hypot(ft[0], ft[1]))
+        if nt < mu[i] * fn * (1.0 - 1e-9):
+            for j in range(3):
+                g = np.zeros(3 * k)
+                g[3 * i + j] = 1.0
+                cols.append(g)
+            rows.extend([3 * i, 3 * i + 1, 3 * i + 2])
+        else:
+            g = np.zeros(3 * k)
+            g[3 * i] = 1.0
+            if nt > 0.0:
+                g[3 * i + 1 : 3 * i + 3] = ft / nt * mu[i]
+            cols.append(g)
+            rows.append(3 * i)
+    if not cols:
+        return base
+    Gm = np.array(cols).T  # (3k, m) maps unknown changes to force changes
+    a = A @ base + b
+    E = (A @ Gm)[rows]
+    dx = np.linalg.lstsq(E, -a[rows], rcond=1e-12)[0]
+    return base + Gm @ dx
+
+
+def solve_friction_cone(
+    A: np.ndarray,
+    b: np.ndarray,
+    mu: float | np.ndarray,
+    *,
+    tol: float = 1e-12,
+    max_iter: int = 10000,
+    warm_start: np.ndarray | None = None,
+    restart_after: int | None = 500,
+) -> FrictionResult:
+    """Resting contact forces with an exact circular friction cone (eqs. 3.6–3.7).
+
+    Finds ``f`` with ``a = A f + b`` and, per contact ``i``:
+    ``f_n >= 0, a_n >= 0, f_n a_n = 0``; ``|f_t| <= mu f_n``; ``f_t . a_t <= 0`` and
+    ``|a_t| (mu f_n - |f_t|) = 0`` (static friction; sliding friction is maximal and
+    opposes the tangential acceleration).
+
+    Method: block (per-contact) nonlinear Gauss–Seidel.  For each contact in turn,
+    with the other contacts' forces frozen:
+
+    1. normal: ``f_n <- max(0, f_n - a_n / A_nn)`` (exact 1-D Signorini solve);
+    2. tangential: with radius ``mu f_n`` (new ``f_n``), solve the 2-D problem exactly
+       (:func:`_disc_local_solve`): stick if the sticking force lies in the disc,
+       otherwise the disc-boundary force whose resulting ``a_t`` is anti-parallel.
+
+    Every 25 sweeps a contact-mode polish (:func:`_mode_polish`) is tried and kept
+    only if it lowers the residual merit; it removes the slow drift of load between
+    redundant contacts (singular ``A``) that plain Gauss–Seidel suffers from.
+    If the iteration has not converged after ``restart_after`` sweeps it is restarted
+    once from the solution of the 16-facet pyramid LCP (:func:`solve_friction_pyramid`,
+    Lemke), which is usually within the facet error of the cone solution; the sweep
+    count keeps running, so ``max_iter`` caps the total.
+    ``a`` is updated incrementally.  A sweep's fixed point satisfies all the
+    conditions above; the iteration stops when the largest force change of a sweep is
+    ``<= tol * max(|f|_inf, |b| / |A|)`` (relative), after which ``a`` is recomputed and
+    the residuals are evaluated.  Contacts with ``A_nn == 0`` receive no force.
+    Convergence of Gauss–Seidel for the (non-associated) Coulomb problem is not
+    guaranteed in general but is robust for the single-body resting contacts used
+    here; check ``converged`` and ``residuals``.
+
+    Parameters
+    ----------
+    A : array_like, shape (3k, 3k)
+        PSD Delassus matrix, per contact order ``(n, x, y)``.
+    b : array_like, shape (3k,)
+        Free accelerations.
+    mu : float or array_like, shape (k,)
+        Friction coefficients.
+    tol : float
+        Relative stopping tolerance on the sweep-to-sweep change of ``f``.
+    max_iter : int
+        Maximum number of sweeps.
+    warm_start : array_like, shape (3k,), optional
+        Initial forces (projected onto the cones first).
+    restart_after : int or None
+        Sweeps before the one-time restart from the pyramid-LCP solution; ``None``
+        disables it.
+
+    Returns
+    -------
+    FrictionResult
+        ``method == "pgs_cone"``, or ``"pgs_cone+pyramid_restart"`` when the restart
+        was used.
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    if b.size % 3 or A.shape != (b.size, b.size):
+        raise ValueError("A must be (3k, 3k) and b (3k,)")
+    k = b.size // 3
+    mu_arr = _mu_vector(mu, k)
+    f = np.zeros(3 * k)
+    if warm_start is not None:
+        f = np.asarray(warm_start, dtype=float).reshape(-1).copy()
+        if f.size != 3 * k:
+            raise ValueError("warm_start has the wrong size")
+        F = f.reshape(-1, 3)
+        F[:, 0] = np.maximum(F[:, 0], 0.0)
+        nt = np.linalg.norm(F[:, 1:], axis=1)
+        over = nt > mu_arr * F[:, 0]
+        F[over, 1:] *= (mu_arr[over] * F[over, 0] / nt[over])[:, None]
+    if k == 0:
+        return FrictionResult(
+            f=f,
+            a=b.copy(),
+            iterations=0,
+            converged=True,
+            residuals=friction_residuals(f, b, mu_arr),
+            mu=mu_arr,
+            method="pgs_cone",
+        )
+    a = A @ f + b
+    a_scale = float(np.max(np.abs(A))) if A.size else 0.0
+    force_scale = float(np.max(np.abs(b))) / a_scale if a_scale > 0 else 0.0
+    diag_n = np.array([A[3 * i, 3 * i] for i in range(k)])
+    active = diag_n > 1e-14 * max(a_scale, 1e-300)
+    Att = [A[3 * i + 1 : 3 * i + 3, 3 * i + 1 : 3 * i + 3] for i in range(k)]
+    eig_lam, eig_Q = [], []
+    for i in range(k):
+        lam_i, Q_i = np.linalg.eigh(0.5 * (Att[i] + Att[i].T))
+        eig_lam.append(np.maximum(lam_i, 0.0))
+        eig_Q.append(Q_i)
+    acc_scale = max(float(np.max(np.abs(b))), 1e-300)
+    polish_every = 25
+    converged = False
+    it = 0
+    method = "pgs_cone"
+    for it in range(1, max_iter + 1):
+        if restart_after is not None and it == restart_after + 1:
+            pyr = solve_friction_pyramid(A, b, mu_arr, n_facets=16)
+            if pyr.converged:
+                f = pyr.f.copy()
+                a = A @ f + b
+                method = "pgs_cone+pyramid_restart"
+        if it % polish_every == 0:
+            fs = max(float(np.max(np.abs(f))), force_scale, 1e-300)
+            cand = _mode_polish(A, b, f, mu_arr)
+            a_c = A @ cand + b
+            a = A @ f + b
+            if _friction_merit(cand, a_c, mu_arr, fs, acc_scale) < _friction_merit(
+                f, a, mu_arr, fs, acc_scale
+            ):
+                f, a = cand, a_c
+        max_change = 0.0
+        for i in range(k):
+            rn = 3 * i
+            if not active[i]:
+                if np.any(f[rn : rn + 3] != 0.0):
+                    a -= A[:, rn : rn + 3] @ f[rn : rn + 3]
+                    f[rn : rn + 3] = 0.0
+                continue
+            fn_new = max(0.0, f[rn] - a[rn] / diag_n[i])
+            dfn = fn_new - f[rn]
+            if dfn != 0.0:
+                a += A[:, rn] * dfn
+                f[rn] = fn_new
+            ft_old = f[rn + 1 : rn + 3].copy()
+            c = a[rn + 1 : rn + 3] - Att[i] @ ft_old
+            ft_new = _disc_local_solve(eig_lam[i], eig_Q[i], c, mu_arr[i] * fn_new)
+            dft = ft_new - ft_old
+            if np.any(dft != 0.0):
+                a += A[:, rn + 1 : rn + 3] @ dft
+                f[rn + 1 : rn + 3] = ft_new
+            max_change = max(max_change, abs(dfn), float(np.max(np.abs(dft))))
+        f_scale = max(float(np.max(np.abs(f))), force_scale, 1e-300)
+        if max_change <= tol * f_scale:
+            converged = True
+            break
+    a = A @ f + b
+    return FrictionResult(
+        f=f,
+        a=a,
+        iterations=it,
+        converged=converged,
+        residuals=friction_residuals(f, a, mu_arr),
+        mu=mu_arr,
+        method=method,
+        status="ok" if converged else "max_iter",
+    )
+
+
+def solve_friction_pyramid(
+    A: np.ndarray,
+    b: np.ndarray,
+    mu: float | np.ndarray,
+    *,
+    n_facets: int = 8,
+    max_pivots: int | None = None,
+    tol: float = 1e-12,
+) -> FrictionResult:
+    """Friction-pyramid LCP (Stewart–Trinkle form) solved with :func:`lemke`.
+
+    The disc ``|f_t| <= mu f_n`` is replaced by the polygon spanned by ``n_facets``
+    unit directions ``d_j = (cos 2 pi j/m, sin 2 pi j/m)``: ``f_t = D beta``,
+    ``beta >= 0``.  With a slack ``lam`` per contact (the magnitude of the sliding
+    acceleration) the conditions become the LCP
+
+    * ``a_n = (A f + b)_n >= 0``  ⟂ ``f_n >= 0``,
+    * ``D^T a_t + lam e >= 0``    ⟂ ``beta >= 0``,
+    * ``mu f_n - e^T beta >= 0``  ⟂ ``lam >= 0``,
+
+    whose matrix is not symmetric (copositive-plus only in special cases), so Lemke
+    is used.  With ``n_facets`` a multiple of 4 the pyramid contains the ``x`` and
+    ``y`` directions exactly; use it to cross-check :func:`solve_friction_cone`.
+
+    Parameters
+    ----------
+    A : array_like, shape (3k, 3k)
+        Delassus matrix, per contact ``(n, x, y)``.
+    b : array_like, shape (3k,)
+        Free accelerations.
+    mu : float or array_like, shape (k,)
+        Friction coefficients.
+    n_facets : int
+        Number of pyramid directions ``m >= 3``.
+    max_pivots, tol
+        Passed to :func:`lemke`.
+
+    Returns
+    -------
+    FrictionResult
+        ``f`` and ``a`` in the ``(n, x, y)`` layout; ``iterations`` = Lemke pivots;
+        residuals measured against the *circular* cone (so ``friction_complementarity``
+        and ``dissipation`` reflect the facet approximation).
+    """
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float).reshape(-1)
+    if b.size % 3 or A.shape != (b.size, b.size):
+        raise ValueError("A must be (3k, 3k) and b (3k,)")
+    if n_facets < 3:
+        raise ValueError("n_facets must be >= 3")
+    k = b.size // 3
+    mu_arr = _mu_vector(mu, k)
+    m = n_facets
+    ang = 2.0 * np.pi * np.arange(m) / m
+    D = np.vstack([np.cos(ang), np.sin(ang)])  # (2, m)
+    nv = k * (1 + m)  # (f_n, beta) per contact
+    H = np.zeros((3 * k, nv))  # f = H x
+    for i in range(k):
+        H[3 * i, i * (1 + m)] = 1.0
+        H[3 * i + 1 : 3 * i + 3, i * (1 + m) + 1 : (i + 1) * (1 + m)] = D
+    L = np.zeros((nv + k, nv + k))
+    L[:nv, :nv] = H.T @ A @ H
+    for i in range(k):
+        beta = slice(i * (1 + m) + 1, (i + 1) * (1 + m))
+        L[beta, nv + i] = 1.0
+        L[nv + i, i * (1 + m)] = mu_arr[i]
+        L[nv + i, beta] = -1.0
+    qq = np.concatenate([H.T @ b, np.zeros(k)])
+    res = lemke(L, qq, max_pivots=max_pivots, tol=tol)
+    f = H @ res.z[:nv]
+    a = A @ f + b
+    return FrictionResult(
+        f=f,
+        a=a,
+        iterations=res.pivots,
+        converged=res.ok,
+        residuals=friction_residuals(f, a, mu_arr),
+        mu=mu_arr,
+        method="lemke_pyramid",
+        status=res.status,
+    )

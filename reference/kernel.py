@@ -1,0 +1,930 @@
+"""Compiled (numba) kernel of the reference solver: one step of :class:`dynamics.Stepper`.
+
+:mod:`pbr_xval.reference.dynamics` is the readable implementation of the seed paper's
+Section 3 (eqs. 3.1–3.7) in NumPy; this module does the same arithmetic for the common
+case in compiled code so that a step costs microseconds instead of the ~0.3 ms of
+per-step Python and small-array overhead measured before it existed (see
+``reference/PERFORMANCE.md`` for the profile).  The two are kept equal by a test
+(``tests/reference/test_kernel.py``: the same Housner run with ``compiled = False`` and
+``True`` agrees to round-off).
+
+What is compiled
+    :func:`step`: contact set at the start of the step (nodes within ±ε, not separating),
+    the support-hull reduction of that set (:func:`support_hull`), the start-of-step and
+    end-of-step resting forces (eqs. 3.6–3.7) by the active-set solve
+    (:func:`active_set_solve`), the constant-average-acceleration update with direct
+    iteration (eqs. 3.1–3.4), the SO(3) check with Cayley projection and the ±ε
+    penetration check.  :func:`impact_pending` is the eq. 3.5 trigger.
+
+What is not
+    The step returns a code instead of raising or calling back into Python:
+    ``STEP_OK``; ``STEP_REJECTED`` (a node ended deeper than ε: step back);
+    ``STEP_GENERAL`` (an active-set guess failed its verification: the caller repeats the
+    step with the general NumPy path, which has the iterative cone solver and the
+    pyramid-LCP fallback of :mod:`pbr_xval.reference.cone`).  Impacts (eq. 3.5) are
+    resolved in :mod:`pbr_xval.reference.dynamics` (they are rare: a few per second).
+
+Structure used
+    The Delassus operator of one rigid body, A = G_m M⁻¹ G_fᵀ (G: 3k × 6 contact
+    Jacobian, M⁻¹ = diag(I₃/m, I_world⁻¹)), has rank ≤ 6; it is assembled from the
+    6 × 6 inverse mass and the (3k, 6) Jacobian in O(k²) — and k is the number of
+    *support-hull* contacts, not of basal nodes: a contact node that is a convex
+    combination of other contact nodes (interior to a flat contact patch, or on an edge
+    between two of them) is dropped, which is exact: the relative acceleration and
+    velocity of a rigid body are affine in the contact position and the normal is the
+    pedestal's, so any force distribution on the dropped node is reproduced by one on the
+    hull vertices with the same wrench and the same cone conditions, and the hull
+    vertices' a_n ≥ 0 implies it at every interior node.  Everything outside the LCP is
+    O(N) in the number of basal nodes N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = [
+    "STEP_GENERAL",
+    "STEP_OK",
+    "STEP_REJECTED",
+    "active_set_solve",
+    "contact_problem",
+    "impact_pending",
+    "step",
+    "support_hull",
+]
+
+STEP_OK = 0
+STEP_REJECTED = 1
+STEP_GENERAL = 2
+
+# parameter vector layout of :func:`step` (float64 array)
+P_MASS, P_MU_S, P_MU_D, P_EPS, P_ITER, P_ITOL, P_VSEP, P_VSLIP, P_ORTH, P_LREF = range(10)
+P_T0, P_DT, P_PED_KIND, P_HX, P_HY, P_REDUCE, P_NO_PEN = range(10, 17)
+N_PARAMS = 17
+# info vector layout (float64 array) filled by :func:`step`
+I_ITS, I_CONV, I_SOLVES, I_FAST, I_CAYLEY, I_NCONT, I_GMIN = range(7)
+I_F1, I_TAU1, I_OMEGA = 7, 10, 13
+I_SIG_F, I_SIG_A, I_COMPL, I_CONE = 16, 17, 18, 19
+I_NRES = 20  # 1 when the residuals of a start-of-step solve were recorded
+N_INFO = 21
+
+
+# ----------------------------------------------------------------------------- small helpers
+@njit(cache=True)
+def _skew(w):
+    s = np.zeros((3, 3))
+    s[0, 1] = -w[2]
+    s[0, 2] = w[1]
+    s[1, 0] = w[2]
+    s[1, 2] = -w[0]
+    s[2, 0] = -w[1]
+    s[2, 1] = w[0]
+    return s
+
+
+@njit(cache=True)
+def _mm(a, b):
+    """a @ b for (3, 3) matrices (plain loops: no BLAS call for 3 × 3)."""
+    c = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            c[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+    return c
+
+
+@njit(cache=True)
+def _mmt(a, b):
+    """a @ bᵀ for (3, 3) matrices."""
+    c = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            c[i, j] = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
+    return c
+
+
+@njit(cache=True)
+def _mv(a, x):
+    """a @ x for a (3, 3) matrix and a (3,) vector."""
+    y = np.empty(3)
+    for i in range(3):
+        y[i] = a[i, 0] * x[0] + a[i, 1] * x[1] + a[i, 2] * x[2]
+    return y
+
+
+@njit(cache=True)
+def _mtv(a, x):
+    """aᵀ @ x for a (3, 3) matrix and a (3,) vector."""
+    y = np.empty(3)
+    for i in range(3):
+        y[i] = a[0, i] * x[0] + a[1, i] * x[1] + a[2, i] * x[2]
+    return y
+
+
+@njit(cache=True)
+def _points_mt(p, R):
+    """p @ Rᵀ for points p (N, 3): the body points rotated."""
+    n = p.shape[0]
+    out = np.empty((n, 3))
+    for i in range(n):
+        for j in range(3):
+            out[i, j] = R[j, 0] * p[i, 0] + R[j, 1] * p[i, 1] + R[j, 2] * p[i, 2]
+    return out
+
+
+@njit(cache=True)
+def _omega(R, inertia_inv, lm):
+    """ω = R I'⁻¹ Rᵀ l."""
+    return _mv(R, _mv(inertia_inv, _mtv(R, lm)))
+
+
+@njit(cache=True)
+def _lu_solve(a, b):
+    """x = a⁻¹ b (b: (n,)) by Gaussian elimination with partial pivoting; ok flag."""
+    n = a.shape[0]
+    m = a.copy()
+    x = b.copy()
+    for c in range(n):
+        p = c
+        best = abs(m[c, c])
+        for r in range(c + 1, n):
+            if abs(m[r, c]) > best:
+                best = abs(m[r, c])
+                p = r
+        if best == 0.0:
+            return x, False
+        if p != c:
+            for j in range(n):
+                tmp = m[c, j]
+                m[c, j] = m[p, j]
+                m[p, j] = tmp
+            tmp = x[c]
+            x[c] = x[p]
+            x[p] = tmp
+        piv = m[c, c]
+        for r in range(c + 1, n):
+            fac = m[r, c] / piv
+            if fac != 0.0:
+                for j in range(c, n):
+                    m[r, j] -= fac * m[c, j]
+                x[r] -= fac * x[c]
+    for c in range(n - 1, -1, -1):
+        s = x[c]
+        for j in range(c + 1, n):
+            s -= m[c, j] * x[j]
+        x[c] = s / m[c, c]
+    return x, True
+
+
+@njit(cache=True)
+def _solve3(a, b):
+    """a⁻¹ b for (3, 3) matrices (cofactor inverse; a is near a rotation or near I here)."""
+    inv = np.empty((3, 3))
+    inv[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    inv[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    inv[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    inv[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    inv[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    inv[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    inv[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    inv[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    inv[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    det = a[0, 0] * inv[0, 0] + a[0, 1] * inv[1, 0] + a[0, 2] * inv[2, 0]
+    return _mm(inv, b) / det
+
+
+@njit(cache=True)
+def _cayley(w):
+    """(I − [w]×/2)⁻¹ (I + [w]×/2) ∈ SO(3)."""
+    s = 0.5 * _skew(w)
+    e = np.eye(3)
+    return _solve3(e - s, e + s)
+
+
+@njit(cache=True)
+def _cayley_project(r_new, r_old):
+    """Projection of r_new onto SO(3) through the Cayley parameter of r_new r_oldᵀ
+    (see :func:`dynamics.cayley_project`)."""
+    e = np.eye(3)
+    dr = _mmt(r_new, r_old)
+    # w = (ΔR − I)(ΔR + I)⁻¹  ⇔  (ΔR + I)ᵀ wᵀ = (ΔR − I)ᵀ
+    wt = _solve3((dr + e).T.copy(), (dr - e).T.copy())
+    w = wt.T
+    ws = 0.5 * (w - w.T)
+    q = _solve3(e - ws, e + ws)
+    return _mm(q, r_old)
+
+
+@njit(cache=True)
+def _det3(r):
+    return (
+        r[0, 0] * (r[1, 1] * r[2, 2] - r[1, 2] * r[2, 1])
+        - r[0, 1] * (r[1, 0] * r[2, 2] - r[1, 2] * r[2, 0])
+        + r[0, 2] * (r[1, 0] * r[2, 1] - r[1, 1] * r[2, 0])
+    )
+
+
+@njit(cache=True)
+def _norm3(v):
+    return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+# ----------------------------------------------------------------------------- support hull
+@njit(cache=True)
+def support_hull(nodes, idx, tol):
+    """Contact nodes that are not convex combinations of the others (exact reduction).
+
+    Parameters
+    ----------
+    nodes : (N, 3) body-frame node coordinates, m.
+    idx : (k,) int, the contact set.
+    tol : coplanarity tolerance, m.
+
+    Returns
+    -------
+    (q,) int, a subset of ``idx`` (ascending): the vertices of the 2-D convex hull of the
+    set in its plane when the set is coplanar within ``tol`` (collinear points on hull
+    edges dropped), the two extreme points of a collinear set, and ``idx`` unchanged when
+    the set is not coplanar (the 3-D case keeps every node) or has ≤ 3 points.
+    """
+    k = idx.size
+    if k <= 3:
+        return idx.copy()
+    p0 = nodes[idx[0]]
+    # farthest point from p0, then the point farthest from the line p0–p1
+    best = -1.0
+    j1 = 0
+    for a in range(k):
+        d = nodes[idx[a]] - p0
+        dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        if dd > best:
+            best = dd
+            j1 = a
+    e1 = nodes[idx[j1]] - p0
+    l1 = _norm3(e1)
+    if l1 <= tol:
+        out = np.empty(1, dtype=np.int64)
+        out[0] = idx[0]
+        return out
+    e1 = e1 / l1
+    best = -1.0
+    j2 = 0
+    for a in range(k):
+        d = nodes[idx[a]] - p0
+        c = np.cross(e1, d)
+        dd = _norm3(c)
+        if dd > best:
+            best = dd
+            j2 = a
+    if best <= tol:  # collinear: the two extreme points along e1
+        lo, hi = 0, 0
+        slo, shi = np.inf, -np.inf
+        for a in range(k):
+            s = np.dot(nodes[idx[a]] - p0, e1)
+            if s < slo:
+                slo = s
+                lo = a
+            if s > shi:
+                shi = s
+                hi = a
+        out = np.empty(2, dtype=np.int64)
+        out[0] = min(idx[lo], idx[hi])
+        out[1] = max(idx[lo], idx[hi])
+        return out
+    nrm = np.cross(e1, nodes[idx[j2]] - p0)
+    nrm = nrm / _norm3(nrm)
+    e2 = np.cross(nrm, e1)
+    u = np.empty(k)
+    v = np.empty(k)
+    for a in range(k):
+        d = nodes[idx[a]] - p0
+        if abs(np.dot(d, nrm)) > tol:
+            return idx.copy()  # not coplanar: keep every node
+        u[a] = np.dot(d, e1)
+        v[a] = np.dot(d, e2)
+    # Andrew's monotone chain; collinear points are dropped (cross ≤ tol·|edge|)
+    order = np.argsort(u + 1e-12 * v)
+    # stable lexicographic order (u, v)
+    for a in range(1, k):
+        b = a
+        while b > 0 and (
+            u[order[b - 1]] > u[order[b]]
+            or (u[order[b - 1]] == u[order[b]] and v[order[b - 1]] > v[order[b]])
+        ):
+            tmp = order[b - 1]
+            order[b - 1] = order[b]
+            order[b] = tmp
+            b -= 1
+    hull = np.empty(2 * k, dtype=np.int64)
+    h = 0
+    for pass_ in range(2):
+        start = h
+        for q in range(k):
+            a = order[q] if pass_ == 0 else order[k - 1 - q]
+            while h - start >= 2:
+                o = hull[h - 2]
+                p = hull[h - 1]
+                cr = (u[p] - u[o]) * (v[a] - v[o]) - (v[p] - v[o]) * (u[a] - u[o])
+                ln = math.hypot(u[a] - u[o], v[a] - v[o])
+                if cr <= tol * ln:
+                    h -= 1
+                else:
+                    break
+            hull[h] = a
+            h += 1
+        h -= 1  # the last point of each chain is the first of the other
+    keep = np.zeros(k, dtype=np.bool_)
+    for q in range(h):
+        keep[hull[q]] = True
+    n_keep = 0
+    for a in range(k):
+        if keep[a]:
+            n_keep += 1
+    out = np.empty(n_keep, dtype=np.int64)
+    q = 0
+    for a in range(k):
+        if keep[a]:
+            out[q] = idx[a]
+            q += 1
+    return out
+
+
+# ----------------------------------------------------------------------------- contact problem
+@njit(cache=True)
+def _jacobians(r, slide, sdir, mu_d):
+    """Measurement rows G_m and force rows G_f (3k, 6) = [d, r × d] per (n, x, y) of each
+    contact; for a sliding contact the normal force row is n − μ_d ŝ (dynamic friction
+    rides on the normal force)."""
+    k = r.shape[0]
+    gm = np.zeros((3 * k, 6))
+    gf = np.zeros((3 * k, 6))
+    for i in range(k):
+        rx, ry, rz = r[i, 0], r[i, 1], r[i, 2]
+        # rows n = ez, x = ex, y = ey; angular parts r × d
+        gm[3 * i, 2] = 1.0
+        gm[3 * i, 3] = ry
+        gm[3 * i, 4] = -rx
+        gm[3 * i + 1, 0] = 1.0
+        gm[3 * i + 1, 4] = rz
+        gm[3 * i + 1, 5] = -ry
+        gm[3 * i + 2, 1] = 1.0
+        gm[3 * i + 2, 3] = -rz
+        gm[3 * i + 2, 5] = rx
+        for c in range(3):
+            for j in range(6):
+                gf[3 * i + c, j] = gm[3 * i + c, j]
+        if slide[i]:
+            d0 = -mu_d * sdir[i, 0]
+            d1 = -mu_d * sdir[i, 1]
+            d2 = 1.0 - mu_d * sdir[i, 2]
+            gf[3 * i, 0] = d0
+            gf[3 * i, 1] = d1
+            gf[3 * i, 2] = d2
+            gf[3 * i, 3] = ry * d2 - rz * d1
+            gf[3 * i, 4] = rz * d0 - rx * d2
+            gf[3 * i, 5] = rx * d1 - ry * d0
+    return gm, gf
+
+
+@njit(cache=True)
+def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel, mu_d):
+    """The resting-contact problem a = A f + b (eqs. 3.6–3.7) of k contacts.
+
+    Parameters
+    ----------
+    R : (3, 3) rotation; lm : (3,) angular momentum, kg m²/s; inertia_inv : (3, 3) body frame.
+    mass : kg. nodes_c : (k, 3) contact nodes, body frame, m. slide : (k,) bool; sdir : (k, 3)
+    unit sliding directions. stab : (3k,) velocity-stabilisation term, m/s². a_rel : (3,) the
+    non-contact acceleration of the COM minus the pedestal's, m/s². mu_d : dynamic friction.
+
+    Returns
+    -------
+    A : (3k, 3k) m/(N s²) per contact (n, x, y); b : (3k,) m/s²; gf : (3k, 6) force rows
+    (wrench per unit force); omega2r : |ω|² max|r|, the size of the centripetal term that
+    no contact force can cancel, m/s².
+    """
+    k = nodes_c.shape[0]
+    iw = _mmt(_mm(R, inertia_inv), R)
+    w = _mv(iw, lm)
+    r = _points_mt(nodes_c, R)
+    wx = _skew(w)
+    alpha = -_mv(iw, _mv(wx, lm))
+    kin = _skew(alpha) + _mm(wx, wx)
+    b = np.empty(3 * k)
+    rmax = 0.0
+    for i in range(k):
+        acc = _mv(kin, r[i]) + a_rel
+        b[3 * i] = acc[2] + stab[3 * i]
+        b[3 * i + 1] = acc[0] + stab[3 * i + 1]
+        b[3 * i + 2] = acc[1] + stab[3 * i + 2]
+        rmax = max(rmax, _norm3(r[i]))
+    gm, gf = _jacobians(r, slide, sdir, mu_d)
+    # A = G_m M⁻¹ G_fᵀ through the 6 × 6 inverse mass (rank ≤ 6): H = G_f,ang I_w⁻¹ᵀ
+    # (3k × 3), then A_pq = G_m,lin,p · G_f,lin,q / m + G_m,ang,p · H_q
+    n3 = 3 * k
+    H = np.zeros((n3, 3))
+    for q in range(n3):
+        for c in range(3):
+            H[q, c] = iw[c, 0] * gf[q, 3] + iw[c, 1] * gf[q, 4] + iw[c, 2] * gf[q, 5]
+    A = np.empty((n3, n3))
+    inv_m = 1.0 / mass
+    for p in range(n3):
+        for q in range(n3):
+            A[p, q] = (gm[p, 0] * gf[q, 0] + gm[p, 1] * gf[q, 1] + gm[p, 2] * gf[q, 2]) * inv_m + (
+                gm[p, 3] * H[q, 0] + gm[p, 4] * H[q, 1] + gm[p, 5] * H[q, 2]
+            )
+    return A, b, gf, (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * rmax
+
+
+@njit(cache=True)
+def _check(A, b, f, status, mu, cons_tol):
+    """Every condition of eqs. 3.6–3.7 for the active set ``status`` (0 free, 1 stick,
+    2 slide: normal clamped, friction folded into A); returns (ok, a)."""
+    k = status.size
+    n3 = b.size
+    a = b.copy()
+    for p in range(n3):
+        for q in range(n3):
+            a[p] += A[p, q] * f[q]
+    bmax = 0.0
+    for x in b:
+        bmax = max(bmax, abs(x))
+    tol = 1e-9 * bmax
+    fmax = 0.0
+    for i in range(k):
+        fmax = max(fmax, abs(f[3 * i]))
+    fscale = 1e-9 * fmax
+    for i in range(k):
+        st = status[i]
+        fn = f[3 * i]
+        if st > 0:
+            if abs(a[3 * i]) > tol + cons_tol:
+                return False, a
+        if st == 1:
+            if abs(a[3 * i + 1]) > tol + cons_tol or abs(a[3 * i + 2]) > tol + cons_tol:
+                return False, a
+        if fn < -fscale:
+            return False, a
+        if st == 0 and a[3 * i] < -tol:
+            return False, a
+        if st == 1 and math.hypot(f[3 * i + 1], f[3 * i + 2]) > mu[i] * fn * (1 + 1e-12) + fscale:
+            return False, a
+    return True, a
+
+
+@njit(cache=True)
+def _range_project(a, r, rtol):
+    """Orthogonal projection of r (n,) onto the column space of a (n, n): modified
+    Gram–Schmidt with column pivoting, columns whose remaining norm is below ``rtol`` of the
+    largest column norm are taken as dependent."""
+    n = a.shape[0]
+    q = a.copy()
+    norms = np.empty(n)
+    big = 0.0
+    for j in range(n):
+        s = 0.0
+        for i in range(n):
+            s += q[i, j] * q[i, j]
+        norms[j] = s
+        big = max(big, s)
+    used = np.zeros(n, dtype=np.bool_)
+    out = np.zeros(n)
+    if big == 0.0:
+        return out
+    for _ in range(n):
+        jb = -1
+        best = rtol * rtol * big
+        for j in range(n):
+            if not used[j] and norms[j] > best:
+                best = norms[j]
+                jb = j
+        if jb < 0:
+            break
+        used[jb] = True
+        nb = math.sqrt(norms[jb])
+        for i in range(n):
+            q[i, jb] /= nb
+        c = 0.0
+        for i in range(n):
+            c += q[i, jb] * r[i]
+        for i in range(n):
+            out[i] += c * q[i, jb]
+        for j in range(n):
+            if not used[j]:
+                d = 0.0
+                for i in range(n):
+                    d += q[i, jb] * q[i, j]
+                s = 0.0
+                for i in range(n):
+                    q[i, j] -= d * q[i, jb]
+                    s += q[i, j] * q[i, j]
+                norms[j] = s
+    return out
+
+
+@njit(cache=True)
+def _clamped_solve(A, b, status, least_squares):
+    k = status.size
+    rows = np.empty(3 * k, dtype=np.int64)
+    ne = 0
+    for i in range(k):
+        if status[i] > 0:
+            rows[ne] = 3 * i
+            ne += 1
+        if status[i] == 1:
+            rows[ne] = 3 * i + 1
+            rows[ne + 1] = 3 * i + 2
+            ne += 2
+    f = np.zeros(3 * k)
+    if ne == 0:
+        return f, True
+    sub = np.empty((ne, ne))
+    rhs = np.empty(ne)
+    tr = 0.0
+    for p in range(ne):
+        rhs[p] = -b[rows[p]]
+        for q in range(ne):
+            sub[p, q] = A[rows[p], rows[q]]
+        tr += sub[p, p]
+    if least_squares:
+        # minimum-norm least-squares solution: the right-hand side is first projected onto
+        # the range of the clamped block (the part no force can reach is left over), then
+        # the now consistent system is solved with the shift below (minimum-norm split of
+        # redundant forces)
+        rhs = _range_project(sub, rhs, 1e-10)
+    shift = 1e-13 * tr / ne
+    for p in range(ne):
+        sub[p, p] += shift
+    x, ok = _lu_solve(sub, rhs)
+    if not ok:
+        return f, False
+    for p in range(ne):
+        f[rows[p]] = x[p]
+    return f, True
+
+
+@njit(cache=True)
+def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
+    """Exact solve of eqs. 3.6–3.7 on a guessed active set, verified; a few corrections.
+
+    Clamped rows (all three of a sticking contact, the normal of a sliding one) satisfy
+    A_EE f_E = −b_E.  It is solved first with a tiny Tikhonov shift (1e-13 of the
+    diagonal: the minimum-norm split of redundant forces when b_E is in the range of
+    A_EE), then, if that answer fails, as the minimum-norm least-squares solution (b_E
+    projected onto the range of A_EE first, :func:`_range_project`).  An answer is accepted only if it satisfies every
+    condition of eqs. 3.6–3.7 — f_n ≥ 0, a_n ≥ 0 on free contacts, the static cone on
+    sticking ones — and the clamped rows' residual is within 1e-9 |b| + ``cons_tol``
+    (``cons_tol``: the centripetal part |ω|² r of b, which no contact force can cancel
+    on three or more sticking points; zero at rest).  When it fails, contacts pulled into
+    tension are freed and free contacts that would penetrate are clamped, and the solve
+    is repeated (at most ``max_rounds`` rounds).
+
+    Parameters
+    ----------
+    A : (3k, 3k); b : (3k,); status : (k,) int guess (0 free, 1 stick, 2 slide);
+    mu : (k,) static friction; cons_tol : m/s² (or m/s for impacts); max_rounds : int.
+
+    Returns
+    -------
+    (ok, f (3k,), a (3k,), status (k,) of the answer).
+    """
+    st = status.copy()
+    k = st.size
+    f = np.zeros(3 * k)
+    a = b.copy()
+    for _ in range(max_rounds):
+        for ls in (False, True):
+            f, solved = _clamped_solve(A, b, st, ls)
+            if not solved:
+                continue
+            ok, a = _check(A, b, f, st, mu, cons_tol)
+            if ok:
+                return True, f, a, st
+        # correction of the guess from the last (least-squares) answer
+        changed = False
+        fmax = 0.0
+        bmax = 0.0
+        for i in range(k):
+            fmax = max(fmax, abs(f[3 * i]))
+        for x in b:
+            bmax = max(bmax, abs(x))
+        for i in range(k):
+            if st[i] > 0 and f[3 * i] < -1e-9 * fmax:
+                st[i] = 0
+                changed = True
+            elif st[i] == 0 and a[3 * i] < -1e-9 * bmax:
+                st[i] = 2 if status[i] == 2 else 1
+                changed = True
+        if not changed:
+            break
+    return False, f, a, st
+
+
+# ----------------------------------------------------------------------------- one step
+@njit(cache=True)
+def _kinematics(x, v, R, lm, inertia_inv, nodes, d, vp, ped_kind, hx, hy):
+    """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω."""
+    n = nodes.shape[0]
+    r = _points_mt(nodes, R)
+    w = _omega(R, inertia_inv, lm)
+    gaps = np.empty(n)
+    vel = np.empty((n, 3))
+    for i in range(n):
+        px = x[0] + r[i, 0] - d[0]
+        py = x[1] + r[i, 1] - d[1]
+        gaps[i] = x[2] + r[i, 2] - d[2]
+        if ped_kind == 1 and (abs(px) > hx or abs(py) > hy):
+            gaps[i] = np.inf
+        vx = v[0] + w[1] * r[i, 2] - w[2] * r[i, 1] - vp[0]
+        vy = v[1] + w[2] * r[i, 0] - w[0] * r[i, 2] - vp[1]
+        vz = v[2] + w[0] * r[i, 1] - w[1] * r[i, 0] - vp[2]
+        vel[i, 0] = vz
+        vel[i, 1] = vx
+        vel[i, 2] = vy
+    return r, gaps, vel, w
+
+
+@njit(cache=True)
+def impact_pending(sv, inertia_inv, nodes, d, vp, eps, v_imp, ped_kind, hx, hy):
+    """True when an in-band node (gap ≤ ε) approaches faster than ``v_imp`` (eq. 3.5 trigger).
+
+    ``sv`` is the packed state (18,) = (x, v, R row-major, l)."""
+    x = sv[0:3]
+    v = sv[3:6]
+    R = sv[6:15].reshape(3, 3)
+    lm = sv[15:18]
+    _, gaps, vel, _ = _kinematics(x, v, R, lm, inertia_inv, nodes, d, vp, ped_kind, hx, hy)
+    for i in range(gaps.size):
+        if gaps[i] <= eps and vel[i, 0] < -v_imp:
+            return True
+    return False
+
+
+@njit(cache=True)
+def contact_set(gaps, vel, nodes, eps, v_sep, v_slip, mu_d, dt, reduce):
+    """Contacts of a step (see :meth:`dynamics.Stepper._contacts`), support-hull reduced when
+    no contact slides.
+
+    Returns (idx (k,), slide (k,) bool, sdir (k, 3), stab (3k,))."""
+    n = gaps.size
+    cnt = 0
+    for i in range(n):
+        if gaps[i] <= eps and vel[i, 0] <= v_sep:
+            cnt += 1
+    idx = np.empty(cnt, dtype=np.int64)
+    cnt = 0
+    any_slide = False
+    for i in range(n):
+        if gaps[i] <= eps and vel[i, 0] <= v_sep:
+            idx[cnt] = i
+            cnt += 1
+            if mu_d > 0 and math.hypot(vel[i, 1], vel[i, 2]) > v_slip:
+                any_slide = True
+    if reduce and not any_slide and cnt > 3:
+        size = 0.0
+        for i in range(nodes.shape[0]):
+            size = max(size, _norm3(nodes[i]))
+        idx = support_hull(nodes, idx, 1e-9 * max(size, 1e-300))
+    k = idx.size
+    slide = np.zeros(k, dtype=np.bool_)
+    sdir = np.zeros((k, 3))
+    stab = np.zeros(3 * k)
+    for a in range(k):
+        i = idx[a]
+        vt = math.hypot(vel[i, 1], vel[i, 2])
+        if mu_d > 0 and vt > v_slip:
+            slide[a] = True
+            sdir[a, 0] = vel[i, 1] / vt
+            sdir[a, 1] = vel[i, 2] / vt
+        for c in range(3):
+            vv = vel[i, c] if abs(vel[i, c]) > 1e-8 else 0.0
+            if c == 0:
+                stab[3 * a] = min(vv, 0.0) / dt
+            elif not slide[a]:
+                stab[3 * a + c] = vv / dt
+    return idx, slide, sdir, stab
+
+
+@njit(cache=True)
+def _forces(
+    R, lm, prm, inertia_inv, nodes, idx, slide, sdir, stab, a_load, ap, active, prev_force, mu_vec, info, diag
+):
+    """Total force (3,), torque (3,) at a state; False when the active-set guess failed."""
+    m = prm[P_MASS]
+    k = idx.size
+    F = m * a_load
+    tau = np.zeros(3)
+    if k == 0:
+        return F, tau, True
+    A, b, gf, cons = contact_problem(
+        R, lm, inertia_inv, m, nodes[idx], slide, sdir, stab, a_load - ap, prm[P_MU_D]
+    )
+    status = np.empty(k, dtype=np.int64)
+    for a in range(k):
+        s = active[idx[a]]
+        if slide[a]:
+            status[a] = 0 if s == 0 else 2
+        else:
+            status[a] = 1 if s == 2 else s
+    info[I_SOLVES] += 1
+    ok, f, acc, st = active_set_solve(A, b, status, mu_vec, 2.0 * cons, k + 1)
+    if not ok:
+        return F, tau, False
+    info[I_FAST] += 1
+    for a in range(k):
+        active[idx[a]] = st[a]
+    for a in range(k):
+        for c in range(3):
+            prev_force[idx[a], c] = f[3 * a + c]
+    wrench = np.zeros(6)
+    for p in range(3 * k):
+        for j in range(6):
+            wrench[j] += gf[p, j] * f[p]
+    F = F + wrench[:3]
+    tau = wrench[3:].copy()
+    if diag:
+        fmin = 0.0
+        amin = 0.0
+        compl = 0.0
+        cone = 0.0
+        for a in range(k):
+            fn = f[3 * a]
+            fmin = min(fmin, fn)
+            amin = min(amin, acc[3 * a])
+            compl = max(compl, abs(fn * acc[3 * a]))
+            mu_fn = 0.0 if slide[a] else prm[P_MU_S] * fn
+            cone = max(cone, math.hypot(f[3 * a + 1], f[3 * a + 2]) - mu_fn)
+        info[I_SIG_F] = -fmin
+        info[I_SIG_A] = -amin
+        info[I_COMPL] = compl
+        info[I_CONE] = cone
+        info[I_NRES] = 1.0
+    return F, tau, True
+
+
+@njit(cache=True)
+def step(sv, prm, ext, inertia_inv, nodes, active, prev_force, pred, pred_idx, out_sv, out_gaps, info):
+    """One constant-average-acceleration step t0 → t0 + Δt with direct iteration.
+
+    Parameters
+    ----------
+    sv : (18,) packed state (x m, v m/s, R row-major, l kg m²/s) at t0.
+    prm : (N_PARAMS,) parameters (layout ``P_*``).
+    ext : (7, 3) non-contact COM acceleration at t0⁺ and t1⁻, pedestal displacement and
+        velocity at t0, pedestal acceleration at t0⁺ and t1⁻, pedestal displacement at t1.
+    inertia_inv : (3, 3) inverse inertia about the COM, body frame, 1/(kg m²).
+    nodes : (N, 3) body-frame contact nodes relative to the COM, m.
+    active : (N,) int, per node status of the last full solve (read).
+    prev_force : (N, 3) last contact force per node (written).
+    pred : (9,) predictor memory (valid, t1, Δt, F0 (3), τ0 (3)), read and written.
+    pred_idx : (N + 1,) int, predictor contact ids (count first), read and written.
+    out_sv : (18,) the state at t1 (written). out_gaps : (N,) node gaps at t1, m (written).
+    info : (N_INFO,) statistics (layout ``I_*``, written).
+
+    Returns
+    -------
+    int : ``STEP_OK``, ``STEP_REJECTED`` or ``STEP_GENERAL`` (see the module docstring).
+    """
+    for j in range(N_INFO):
+        info[j] = 0.0
+    m = prm[P_MASS]
+    dt = prm[P_DT]
+    t0 = prm[P_T0]
+    t1 = t0 + dt
+    ped_kind = int(prm[P_PED_KIND])
+    hx, hy = prm[P_HX], prm[P_HY]
+    x0 = sv[0:3].copy()
+    v0 = sv[3:6].copy()
+    R0 = sv[6:15].reshape(3, 3).copy()
+    l0 = sv[15:18].copy()
+    a_load0, a_load1 = ext[0], ext[1]
+    d0, vp0, ap0, ap1, d1 = ext[2], ext[3], ext[4], ext[5], ext[6]
+    _, gaps0, vel0, w0 = _kinematics(x0, v0, R0, l0, inertia_inv, nodes, d0, vp0, ped_kind, hx, hy)
+    idx, slide, sdir, stab = contact_set(
+        gaps0, vel0, nodes, prm[P_EPS], prm[P_VSEP], prm[P_VSLIP], prm[P_MU_D], dt, prm[P_REDUCE] > 0
+    )
+    k = idx.size
+    mu_vec = np.full(k, prm[P_MU_S])
+    F0, tau0, ok = _forces(
+        R0,
+        l0,
+        prm,
+        inertia_inv,
+        nodes,
+        idx,
+        slide,
+        sdir,
+        stab,
+        a_load0,
+        ap0,
+        active,
+        prev_force,
+        mu_vec,
+        info,
+        True,
+    )
+    if not ok:
+        return STEP_GENERAL
+    W0R0 = _mm(_skew(w0), R0)
+    Fp = F0.copy()
+    taup = tau0.copy()
+    same = pred[0] > 0 and pred[1] == t0 and pred[2] == dt and pred_idx[0] == k
+    if same:
+        for a in range(k):
+            if pred_idx[1 + a] != idx[a]:
+                same = False
+                break
+    if same:
+        for c in range(3):
+            Fp[c] = 2.0 * F0[c] - pred[3 + c]
+            taup[c] = 2.0 * tau0[c] - pred[6 + c]
+    vp = v0 + 0.5 * dt * (F0 + Fp) / m
+    lp = l0 + 0.5 * dt * (tau0 + taup)
+    x1 = x0 + 0.5 * dt * (v0 + vp)
+    v1 = vp
+    R1 = _mm(_cayley(dt * w0), R0)
+    l1 = lp
+    vscale = max(_norm3(v0), _norm3(a_load0) * dt, 1e-300)
+    lscale = max(_norm3(l0), prm[P_LREF] * vscale, 1e-300)
+    itol = prm[P_ITOL]
+    orth = prm[P_ORTH]
+    eye = np.eye(3)
+    its = 0
+    converged = False
+    F1 = F0
+    tau1 = tau0
+    for it in range(1, int(prm[P_ITER]) + 1):
+        its = it
+        F1, tau1, ok = _forces(
+            R1,
+            l1,
+            prm,
+            inertia_inv,
+            nodes,
+            idx,
+            slide,
+            sdir,
+            stab,
+            a_load1,
+            ap1,
+            active,
+            prev_force,
+            mu_vec,
+            info,
+            False,
+        )
+        if not ok:
+            return STEP_GENERAL
+        vn = v0 + 0.5 * dt * (F0 + F1) / m  # eq. 3.2
+        xn = x0 + 0.5 * dt * (v0 + vn)  # eq. 3.1
+        ln = l0 + 0.5 * dt * (tau0 + tau1)  # eq. 3.4
+        wn = _omega(R1, inertia_inv, ln)
+        Rn = R0 + 0.5 * dt * (W0R0 + _mm(_skew(wn), R1))  # eq. 3.3
+        if abs(_det3(Rn) - 1.0) > orth or np.abs(_mm(Rn.T.copy(), Rn) - eye).max() > orth:
+            Rn = _cayley_project(Rn, R0)
+            info[I_CAYLEY] += 1
+        dv = _norm3(vn - v1) / vscale
+        dl = _norm3(ln - l1) / lscale
+        dR = np.abs(Rn - R1).max()
+        x1, v1, R1, l1 = xn, vn, Rn, ln
+        if max(dv, dl, dR) <= itol:
+            converged = True
+            break
+    # predictor memory for the next step (kept also when this step is rejected)
+    pred[0] = 1.0
+    pred[1] = t1
+    pred[2] = dt
+    pred[3:6] = F0
+    pred[6:9] = tau0
+    pred_idx[0] = k
+    pred_idx[1 : 1 + k] = idx
+    out_sv[0:3] = x1
+    out_sv[3:6] = v1
+    out_sv[6:15] = R1.ravel()
+    out_sv[15:18] = l1
+    info[I_ITS] = its
+    info[I_CONV] = 1.0 if converged else 0.0
+    info[I_F1 : I_F1 + 3] = F1
+    info[I_TAU1 : I_TAU1 + 3] = tau1
+    info[I_OMEGA : I_OMEGA + 3] = _omega(R1, inertia_inv, l1)
+    # penetration check at the end of the step
+    r = _points_mt(nodes, R1)
+    gmin = np.inf
+    ncont = 0
+    for i in range(nodes.shape[0]):
+        px = x1[0] + r[i, 0] - d1[0]
+        py = x1[1] + r[i, 1] - d1[1]
+        g = x1[2] + r[i, 2] - d1[2]
+        if ped_kind == 1 and (abs(px) > hx or abs(py) > hy):
+            g = np.inf
+        out_gaps[i] = g
+        gmin = min(gmin, g)
+        if g <= prm[P_EPS]:
+            ncont += 1
+    info[I_GMIN] = gmin
+    info[I_NCONT] = ncont
+    if gmin < -prm[P_EPS] and prm[P_NO_PEN] == 0:
+        return STEP_REJECTED
+    return STEP_OK
