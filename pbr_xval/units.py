@@ -52,6 +52,8 @@ _DEG = ("°", "deg")
 _KG = ("kg", "kg")
 _KG_M3 = ("kg/m³", "kg_m3")
 _ONE = ("", "")
+_PER_YR = ("1/yr", "per_yr")
+_YR = ("yr", "yr")
 
 #: last dotted component of a key → quantity
 QUANTITIES: dict[str, Quantity] = {
@@ -90,6 +92,9 @@ QUANTITIES: dict[str, Quantity] = {
         ("restitution", "restitution", _ONE),
         ("impact_ratio", "impact velocity ratio η", _ONE),
         ("scale", "scale factor", _ONE),
+        ("annual_rate", "annual exceedance rate λ", _PER_YR),
+        ("toppling_rate", "toppling rate ν", _PER_YR),
+        ("exposure_age", "exposure age", _YR),
         ("skew", "pulse skew s", _ONE),
         ("theta_over_alpha", "θ/α", _ONE),
     ]

@@ -22,6 +22,7 @@ from pbr_xval.atomic import write_text_atomic
 from pbr_xval.hazard.fragility import LognormalFragility
 from pbr_xval.hazard.ims import G, im_label, oq_unit
 from pbr_xval.hazard.survival import Constraint, RockInput
+from pbr_xval.units import label
 
 __all__ = ["ASSUMPTIONS", "write_report"]
 
@@ -73,7 +74,7 @@ def _fig_curves(c: Constraint) -> str:
     top = max(float(c.rates.max()), 1e-300)
     ax.set_ylim(max(top * 1e-6, c.rate_of_interest / 100), top * 2)
     ax.set_xlabel(im_label(c.im))
-    ax.set_ylabel("annual exceedance rate λ [1/yr]")
+    ax.set_ylabel(label("annual_rate"))
     ax.set_title("Site hazard before and after the rocks' survival")
     ax.legend(fontsize=8, loc="lower left")
     return _png(fig)
