@@ -24,10 +24,14 @@ Rocked
     some base point (hull point touching the pedestal at rest) rose more than δ above
     another (``uplift_max_m`` > δ).
 Slid
-    the lowest hull point moved horizontally from its own rest position by more than
-    ``0.01 b`` while the rock touched the pedestal (``slip_max_m``, m). Rocking about an edge
-    or a corner leaves the pivot in place; 1 % of b is 5× the largest creep measured in pure
-    rocking (PyBullet, 0.19 % of b on the Housner block at 5.6 m/s², see the docs).
+    the contact slid more than ``0.01 b`` away from where it started (``slip_max_m``, m): from
+    each sample to the next, the contact — the centroid of the hull points within δ of the
+    lowest, taken as a material point of the rock — moves by Δ horizontally; the accumulated
+    Σ Δ is the slip vector and its largest length is ``slip_max_m`` (``slip_end_m`` at the end;
+    in a flight Δ is the base's own displacement). A pivot (rocking about an edge or a corner)
+    and a rolling contact do not move, so rocking and rolling give no slip; the vector sum lets
+    a compliant contact's jitter cancel. 1 % of b is ≥ 20× the largest creep
+    measured in pure rocking and rolling (see the docs).
 Jumped
     the lowest hull point was more than δ above the pedestal top (the base plane at rest) at
     one sample or more: the rock lost all contact. A flight lasts while the lowest point is
@@ -317,29 +321,31 @@ def impact_times(t: np.ndarray, theta: np.ndarray, tol: float) -> np.ndarray:
 
 
 def _points_z_and_xy(
-    sc: SceneScales, com: np.ndarray, rot: np.ndarray
+    sc: SceneScales, com: np.ndarray, rot: np.ndarray, tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per sample: lowest hull point height (n,), its horizontal displacement from rest (n,),
-    and the spread of the support points' heights (n,) (m)."""
+    """Per sample: the lowest hull point's height (n,) m; the horizontal displacement (n−1, 2) m
+    to the next sample of the contact — the centroid of the hull points within ``tol`` (m) of the
+    lowest, as a material point; and the spread of the support points' heights (n,) m."""
     n = com.shape[0]
     k = sc.hull.shape[0]
     low = np.empty(n)
-    slip = np.empty(n)
+    contact = np.empty((n, 3))
     spread = np.zeros(n)
     step = max(1, _CHUNK // max(k, 1))
-    rest_xy = sc.hull[:, :2] + sc.com[:2]
     for a in range(0, n, step):
         b = min(n, a + step)
-        p = np.einsum("nij,kj->nki", rot[a:b], sc.hull) + com[a:b, None, :]  # (m, k, 3)
-        z = p[:, :, 2]
-        j = np.argmin(z, axis=1)
-        r = np.arange(b - a)
-        low[a:b] = z[r, j]
-        slip[a:b] = np.hypot(p[r, j, 0] - rest_xy[j, 0], p[r, j, 1] - rest_xy[j, 1])
+        z = np.einsum("nj,kj->nk", rot[a:b, 2, :], sc.hull) + com[a:b, 2:3]  # (m, k)
+        zmin = z.min(axis=1)
+        low[a:b] = zmin
+        near = (z <= zmin[:, None] + tol).astype(float)
+        contact[a:b] = (near @ sc.hull) / near.sum(axis=1)[:, None]
         if sc.support.size >= 2:
             zs = z[:, sc.support]
             spread[a:b] = zs.max(axis=1) - zs.min(axis=1)
-    return low, slip, spread
+    r = contact[:-1]
+    here = np.einsum("nij,nj->ni", rot[:-1, :2, :], r) + com[:-1, :2]
+    there = np.einsum("nij,nj->ni", rot[1:, :2, :], r) + com[1:, :2]
+    return low, there - here, spread
 
 
 # ------------------------------------------------------------------ the figures
@@ -401,7 +407,7 @@ def standard_diagnostics(traj: Trajectory, scene: Scene) -> dict[str, Any]:
     n_ev = int(np.searchsorted(t, top, side="right")) if top is not None else n_ok
     n_ev = max(1, min(n_ev, n_ok))
 
-    low, slip, spread = _points_z_and_xy(sc, com, rot)
+    low, slip, spread = _points_z_and_xy(sc, com, rot, tol)
     gap = low - sc.base_z
     flights = _flights(t[:n_ev], gap[:n_ev], tol, AIR_FLOOR_REL * sc.lever)
     air = np.zeros(n_ev, dtype=bool)
@@ -409,10 +415,12 @@ def standard_diagnostics(traj: Trajectory, scene: Scene) -> dict[str, Any]:
         air[a:b] = True
     durations = [t1 - t0 for _, _, t0, t1 in flights]
     touching = ~air
-    slip_ev = slip[:n_ev][touching]
     uplift_max = float(np.max(spread[:n_ev][touching])) if touching.any() else 0.0
-    slip_max = float(np.max(slip_ev)) if slip_ev.size else 0.0
-    slip_end = float(slip_ev[-1]) if slip_ev.size else 0.0
+    # slip: the contact's own displacement, accumulated (in flight: the base's displacement)
+    inc = slip[: n_ev - 1]
+    acc = np.hypot(*np.cumsum(inc, axis=0).T) if inc.size else np.zeros(1)
+    slip_max = float(np.max(acc, initial=0.0))
+    slip_end = float(acc[-1]) if acc.size else 0.0
     rocked = uplift_max > tol
     slid = slip_max > tol_slip
     jumped = bool(flights)
