@@ -1,6 +1,6 @@
 """A multiple-stripe analysis from end to end: synthetic records × scale factors → sweep → fragility.
 
-    python examples/hazard/msa/run_msa.py OUT          # ~60 Housner runs, about 1–2 minutes
+    python examples/hazard/msa/run_msa.py OUT          # 60 Housner runs, ~260 core-seconds
 
 1. Six synthetic accelerograms (band-passed white noise, Butterworth order 2 around f₀ = 0.6–3 Hz,
    a build-up/decay envelope, 10 s at dt = 0.01 s, normalised to PGA = 1 m/s², seed 1) are written
