@@ -494,16 +494,16 @@ def run(
         f"rel. tol {cfg.rel_tol:g}."
     )
     head: dict[str, Any] = {"reference": ref, "recommendations": {}}
+    budgets = sorted({float(b) for b in recs["budget"]}) if len(recs) else []
+    cells: dict[str, dict[float, str]] = {}
     for _, rr in recs.iterrows():
         b = float(rr["budget"])
-        if rr["setting"] is None:
-            line = f"{rr['engine']}: ≤ {b:.1%} — no setting tried reaches this accuracy"
-        else:
-            line = (
-                f"{rr['engine']}: ≤ {b:.1%} at least cost: {rr['setting']} "
-                f"(err {rr['rel_error']:+.2%}, {rr['wall_s_per_sim']:.3g} s per simulation)"
-            )
-        result.summary.append(line)
+        cells.setdefault(str(rr["engine"]), {})[b] = (
+            "no setting tried reaches it"
+            if rr["setting"] is None
+            else f"at least cost {rr['setting']} (err {rr['rel_error']:+.2%}, "
+            f"{rr['wall_s_per_sim']:.3g} s per simulation)"
+        )
         head["recommendations"].setdefault(rr["engine"], {})[f"{b:g}"] = (
             None
             if rr["setting"] is None
@@ -513,6 +513,13 @@ def run(
                 "wall_s_per_sim": rr["wall_s_per_sim"],
             }
         )
+    for eng, by_b in cells.items():  # one line per engine; budgets sharing a setting merged
+        groups: dict[str, list[float]] = {}
+        for b in budgets:
+            if b in by_b:
+                groups.setdefault(by_b[b], []).append(b)
+        parts = [f"≤ {', '.join(f'{b:.1%}' for b in bs)}: {text}" for text, bs in groups.items()]
+        result.summary.append(f"{eng}: " + "; ".join(parts))
     n_skip = int((df["status"] == "skipped").sum())
     bad = df[~df["status"].isin(["ok", "skipped"])]
     if n_skip:

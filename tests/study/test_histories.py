@@ -46,10 +46,10 @@ def test_self_comparison_is_zero(result) -> None:
 
 def test_tables_and_figures(result) -> None:
     th = result.tables["histories_theta"]
-    assert set(th.columns) == {"t", "engine", "theta_over_alpha"}
+    assert set(th.columns) == {"t", "engine", "theta_over_alpha", "dtheta_over_alpha"}
     assert (th.groupby("engine").size() <= 2000).all()
     assert np.abs(th["theta_over_alpha"]).max() < 1.0
-    assert {f.name for f in result.figures} == {"histories_theta", "histories_com"}
+    assert {f.name for f in result.figures} == {"histories_theta", "toppling_theta", "histories_com"}
     assert result.provenance["reference_engine"] == "housner"
 
 
