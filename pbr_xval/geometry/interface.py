@@ -431,21 +431,21 @@ def plot_stability_polar(table: StabilityTable, path: str | Path, g: float = 9.8
     )
     axes[0].plot(phi, alpha_u, "-", lw=1.2, color="C2", label="tilt-table angle α_u = atan(ρ/h_G)")
     axes[0].set_title("tilt angles toward φ [deg]")
-    axes[0].legend(loc="lower center", bbox_to_anchor=(0.5, -0.22), fontsize=7)
+    fig.legend(loc="lower center", bbox_to_anchor=(0.5, 0.03), ncol=2, fontsize=7)
     axes[1].plot(phi, acc, "-o", ms=2, color="C3")
-    axes[1].set_title("quasi-static toppling g·tan α_u(φ) [m/s²]")
+    axes[1].set_title("quasi-static uplift g·tan α_u(φ) [m/s²]\n(a lower bound on the toppling PGA)")
     for ax in axes:
         ax.set_theta_zero_location("E")
         ax.set_theta_direction(1)
         ax.set_rmin(0.0)
-    fig.text(0.5, 0.01, PHI_CONVENTION, ha="center", fontsize=8)
+    fig.text(0.5, 0.012, PHI_CONVENTION, ha="center", fontsize=8)
     if not np.all(np.isfinite(table.alpha)):
         fig.text(
-            0.5, 0.05, "gaps: no critical tilt (the pose is not at rest toward φ)", ha="center", fontsize=8
+            0.5, 0.09, "gaps: no critical tilt (the pose is not at rest toward φ)", ha="center", fontsize=8
         )
     if title:
         fig.suptitle(title)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     _atomic_savefig(fig, Path(path), dpi=110)
     plt.close(fig)
     return Path(path)
