@@ -269,7 +269,8 @@ def _read_source(src: Any, resolve: Callable[[str], Any], key: str) -> Record:
     ):
         if v is not None and k not in kw:
             raise RecordSpecError(
-                f"key '{key}.{k}': applies to {'a table' if 'column' in k else 'an npz archive'}, not to a {fmt} record"
+                f"key '{key}.{k}': applies to {'a table' if 'column' in k else 'an npz archive'}, "
+                f"not to a record in format {fmt!r}"
             )
     try:
         return read_record(path, format=fmt, **kw)
