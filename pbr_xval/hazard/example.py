@@ -12,7 +12,9 @@
    as for a real sweep) and exported as an NRML ``fragilityModel`` (continuous logncdf) and CSV.
 3. **Ages** — ¹⁰Be-like exposure ages 10.5 ± 1.2 ka (normal), 18 ± 3 ka (lognormal) and
    7.0 ± 0.8 ka (normal).
-4. **Config** — ``constrain.toml`` naming the files; ``pbr-xval constrain`` runs it.
+4. **Config** — ``constrain.toml`` naming the files (the rocks from ``rocks.csv``, which carries
+   the fits' intervals; ``rocks.xml`` holds the same functions for OpenQuake);
+   ``pbr-xval constrain`` runs it.
 
 Stand-ins for real data, documented in ``docs/hazard.md``: no number of this example is a
 statement about a real site.
@@ -105,7 +107,7 @@ def write_example(out: str | Path) -> Path:
                           description="synthetic example rocks, discrete form")  # fmt: skip
     write_fragility_csv(d / "fragility" / "rocks.csv", rows)
     for rid, _, _, age, sd, dist in ROCKS:
-        toml += ["", "[[rock]]", f'id = "{rid}"', 'fragility = "fragility/rocks.xml"', f"age = {age!r}",
+        toml += ["", "[[rock]]", f'id = "{rid}"', 'fragility = "fragility/rocks.csv"', f"age = {age!r}",
                  f"age_sd = {sd!r}", f'age_dist = "{dist}"']  # fmt: skip
     return write_text_atomic(d / "constrain.toml", "\n".join(toml) + "\n")
 

@@ -250,7 +250,8 @@ def write_fragility_csv(path: str | Path, rows: list[dict[str, Any]]) -> Path:
 
 def read_fragility_csv(path: str | Path) -> dict[str, LognormalFragility]:
     """Lognormal fragilities from a CSV with columns ``id, im, unit, theta, beta`` (θ in ``unit``:
-    the SI unit of the IM, or OpenQuake's g / cm/s). Rows whose status is not ``ok`` are skipped."""
+    the SI unit of the IM, or OpenQuake's g / cm/s) and, when present, the intervals ``theta_lo``,
+    ``theta_hi``, ``beta_lo``, ``beta_hi``. Rows whose status is not ``ok`` are skipped."""
     p = Path(path)
     if not p.is_file():
         raise HazardInputError(f"{p}: file not found; expected a fragility CSV")
@@ -281,6 +282,17 @@ def read_fragility_csv(path: str | Path) -> dict[str, LognormalFragility]:
             raise HazardInputError(
                 f"{where}: field 'unit': {unit!r}; expected {im_unit(im)!r} or {oq_unit(im)!r} for {im}"
             )
-        out[r["id"]] = LognormalFragility(im, r["id"], theta=_num(r["theta"], where, "theta") * k,
-                                          beta=_num(r["beta"], where, "beta"), meta={"source": str(p)})  # fmt: skip
+
+        def opt(key: str, scale: float = 1.0, where: str = where, r: dict[str, Any] = r) -> float:
+            v = (r.get(key) or "").strip()
+            return _num(v, where, key) * scale if v and v.lower() != "nan" else math.nan
+
+        try:
+            out[r["id"]] = LognormalFragility(
+                im, r["id"], theta=_num(r["theta"], where, "theta") * k, beta=_num(r["beta"], where, "beta"),
+                theta_ci=(opt("theta_lo", k), opt("theta_hi", k)), beta_ci=(opt("beta_lo"), opt("beta_hi")),
+                meta={"source": str(p)},
+            )  # fmt: skip
+        except HazardInputError as exc:
+            raise HazardInputError(f"{where}: {exc}") from None
     return out

@@ -131,13 +131,19 @@ def test_reads_the_manuals_example(tmp_path):
 
 
 def test_csv_round_trip(tmp_path):
-    rows = [{"id": "a", "im": "pga", "theta": 2.9, "beta": 0.33, "status": "ok"},
+    rows = [{"id": "a", "im": "pga", "theta": 2.9, "beta": 0.33, "status": "ok", "theta_lo": 2.5, "theta_hi": 3.4,
+             "beta_lo": 0.25, "beta_hi": 0.45},
             {"id": "b", "im": "SA(1.0)", "theta": 4.0, "beta": 0.5, "status": "separated"}]  # fmt: skip
     p = write_fragility_csv(tmp_path / "f.csv", rows)
     text = p.read_text().splitlines()
     assert text[0].startswith("id,im,unit,theta,beta,mean,stddev")
     fs = read_fragility_csv(p)
     assert list(fs) == ["a"] and fs["a"].theta == pytest.approx(2.9) and fs["a"].beta == pytest.approx(0.33)
+    assert fs["a"].theta_ci == pytest.approx((2.5, 3.4)) and fs["a"].beta_ci == pytest.approx((0.25, 0.45))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("id,im,unit,theta,beta\nx,PGA,g,-1,0.3\n")
+    with pytest.raises(HazardInputError, match=r"bad.csv line 2: fragility 'x': median θ = -9.80665"):
+        read_fragility_csv(bad)
 
 
 @pytest.mark.parametrize(
