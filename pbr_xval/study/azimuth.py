@@ -138,13 +138,33 @@ def run(
             f"scenario {scenario.name!r}: key {config.param!r} = {v0!r}; expected a positive number"
         )
 
+    # the bound holds for a rigid rock starting at rest on a horizontal pedestal, no vertical shaking
+    scene0 = compile_scene(scenario)
+    why_not = []
+    if scene0.pedestal.get("kind") not in ("plane", "box"):
+        why_not.append("the pedestal is not flat")
+    if scene0.excitation.vertical is not None:
+        why_not.append("the motion has a vertical component")
+    if scene0.theta0 != 0.0 or scene0.omega0 != 0.0:
+        why_not.append("the rock does not start at rest")
+    bound_applies = not why_not
+    if not bound_applies:
+        notes.append(f"no quasi-static uplift bound: {', '.join(why_not)}")
+        if config.lo is None:
+            raise ValueError(
+                f"study 'azimuth' on {scenario.name!r}: {', '.join(why_not)}, so the uplift bound does not "
+                "apply and cannot set the search range; give 'lo' and 'hi'"
+            )
+
     # per direction: the scenario, the bound and the value at which PGA = bound
     per_dir: list[dict[str, Any]] = []
     for phi in azimuths:
         scn = scenario.with_value("excitation.azimuth_deg", float(phi))
         scene = compile_scene(scn)
         table = scene.rock.stability
-        bound = float(table.shaking_bound(math.radians(phi), scene.gravity))
+        bound = (
+            float(table.shaking_bound(math.radians(phi), scene.gravity)) if bound_applies else float("nan")
+        )
         p1 = float(pga_of(scn))
         p2 = float(pga_of(scn.with_value(config.param, 2.0 * v0)))
         if not (p1 > 0 and abs(p2 / p1 - 2.0) < 1e-6):
@@ -177,8 +197,15 @@ def run(
             }
         )
     dense = np.radians(np.arange(0.0, 360.0, 1.0))
-    ref_scene = compile_scene(per_dir[0]["scenario"])
-    dense_bound = np.asarray(ref_scene.rock.stability.shaking_bound(dense, ref_scene.gravity), dtype=float)
+    st0 = scene0.rock.stability
+    dense_bound = (
+        np.asarray(st0.shaking_bound(dense, scene0.gravity), dtype=float)
+        if bound_applies
+        else np.full(dense.shape, np.nan)
+    )
+    # quasi-static toppling of a rock rolling on its hull (critical tilt α, smaller of ±φ): not a bound
+    alpha2 = np.minimum(st0.alpha_at(dense), st0.alpha_at(dense + np.pi))
+    dense_alpha = np.where(alpha2 < np.radians(80.0), scene0.gravity * np.tan(alpha2), np.nan)
 
     rows: list[dict[str, Any]] = []
     skipped: dict[str, str] = {}
@@ -249,7 +276,9 @@ def run(
 
     cols = _columns(unit)
     table_df = pd.DataFrame(rows, columns=cols)
-    bound_df = pd.DataFrame({"phi_deg": np.degrees(dense), "bound_m_s2": dense_bound})
+    bound_df = pd.DataFrame(
+        {"phi_deg": np.degrees(dense), "bound_m_s2": dense_bound, "critical_tilt_accel_m_s2": dense_alpha}
+    )
     below = table_df[(table_df["status"] == "bracketed") & (table_df["ratio_to_bound_lo"] < 1.0)]
     for _, r in below.iterrows():
         notes.append(
@@ -386,7 +415,22 @@ def _figure(table: Any, bound: Any, name: str, param: str) -> Figure:
     ax.set_theta_direction(1)
     phi_b = np.radians(np.append(bound["phi_deg"].to_numpy(float), 360.0))
     b = np.append(bound["bound_m_s2"].to_numpy(float), bound["bound_m_s2"].to_numpy(float)[0])
-    ax.plot(phi_b, b, "k-", lw=1.2, label="quasi-static uplift bound min(g·tan α_u(φ), g·tan α_u(φ+180°))")
+    if np.isfinite(b).any():
+        ax.plot(
+            phi_b, b, "k-", lw=1.2, label="quasi-static uplift bound min(g·tan α_u(φ), g·tan α_u(φ+180°))"
+        )
+    ga = np.append(
+        bound["critical_tilt_accel_m_s2"].to_numpy(float),
+        bound["critical_tilt_accel_m_s2"].to_numpy(float)[0],
+    )
+    ax.plot(
+        phi_b,
+        ga,
+        "--",
+        color="0.5",
+        lw=1,
+        label="g·tan α(φ), α the smaller critical tilt toward ±φ (not a bound)",
+    )
     for i, (eng, sub) in enumerate(table.groupby("engine", sort=False)):
         sub = sub.sort_values("phi_deg")
         ok = sub[np.isfinite(sub["pga_at_minimum_m_s2"].astype(float))]
@@ -416,8 +460,8 @@ def _figure(table: Any, bound: Any, name: str, param: str) -> Figure:
         caption=(
             f"Minimum toppling level of {param} per shaking azimuth φ, as the PGA of the motion at that "
             "level (m/s², radius), for each engine (error bars: ± search tolerance; dotted: linear in φ between the directions searched); black: the quasi-static "
-            "uplift bound, below which a rigid rock cannot leave its base in either sense of the shaking. "
-            + PHI_CONVENTION
-            + "."
+            "uplift bound, below which a rigid rock cannot leave its base in either sense of the shaking; "
+            "dashed grey: g·tan α of the critical tilt of a rock rolling on its hull (quasi-static toppling, "
+            "not a bound: a dynamic pulse can topple a rough-based rock below it). " + PHI_CONVENTION + "."
         ),
     )

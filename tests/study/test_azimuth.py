@@ -87,6 +87,11 @@ def test_bad_azimuth_configs_are_refused_before_simulating(scanned, tmp_path):
         AzimuthConfig(range_over_bound=(2.0, 1.0))
     with pytest.raises(ValueError, match="give both 'lo' and 'hi'"):
         AzimuthConfig(lo=1.0)
+    shaken = scanned.with_value(
+        "excitation.vertical", {"type": "one_sine", "amplitude": 1.0, "frequency": 2.0}
+    )
+    with pytest.raises(ValueError, match="vertical component, so the uplift bound does not apply"):
+        run(AzimuthConfig(azimuths_deg=[0.0]), shaken, ["pybullet"])
     with pytest.raises(ValueError, match="does not scale the PGA linearly"):
         run(AzimuthConfig(param="excitation.frequency", azimuths_deg=[0.0]), scanned, ["pybullet"])
     (tmp_path / "s.toml").write_text(
