@@ -362,7 +362,7 @@ def _csv_value(key: str, text: str) -> Any:
 
 def _rocks_from_csv(path: Path, errors: list[str]) -> list[tuple[str, dict[str, Any]]]:
     """(where, raw rock dict) per data row of a CSV rock list."""
-    out = []
+    out: list[tuple[str, dict[str, Any]]] = []
     try:
         text = path.read_text()
     except OSError as exc:
@@ -650,7 +650,7 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
                 )
             )
     # top level
-    top = {
+    top: dict[str, Any] = {
         k: data[k]
         for k in (
             "name",
