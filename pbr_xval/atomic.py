@@ -31,6 +31,7 @@ __all__ = [
     "clean_stale_temporaries",
     "file_mode",
     "write_bytes_atomic",
+    "write_figure_atomic",
     "write_parquet_atomic",
     "write_text_atomic",
 ]
@@ -170,6 +171,17 @@ def write_bytes_atomic(path: str | os.PathLike[str], data: bytes, *, hidden: boo
 
 def write_text_atomic(path: str | os.PathLike[str], text: str, *, hidden: bool = False) -> Path:
     return write_bytes_atomic(path, text.encode("utf-8"), hidden=hidden)
+
+
+def write_figure_atomic(path: str | os.PathLike[str], fig: Any, **savefig_kw: Any) -> Path:
+    """Save a matplotlib figure atomically (format from the suffix unless ``format`` is given)."""
+    import io
+
+    path = Path(path)
+    buf = io.BytesIO()
+    savefig_kw.setdefault("format", path.suffix.lstrip(".").lower() or "png")
+    fig.savefig(buf, **savefig_kw)
+    return write_bytes_atomic(path, buf.getvalue())
 
 
 def write_parquet_atomic(path: str | os.PathLike[str], table: Any, *, hidden: bool = False) -> Path:

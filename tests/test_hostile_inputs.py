@@ -565,6 +565,27 @@ def test_files_honour_the_umask(tmp_path: Path) -> None:
         os.umask(old)
 
 
+def test_figures_are_atomic_and_honour_the_umask(tmp_path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from pbr_xval.atomic import write_figure_atomic
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    old = os.umask(0o022)
+    try:
+        write_figure_atomic(tmp_path / "f.png", fig, dpi=50)
+    finally:
+        os.umask(old)
+        plt.close(fig)
+    data = (tmp_path / "f.png").read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and (tmp_path / "f.png").stat().st_mode & 0o777 == 0o644
+    assert [p.name for p in tmp_path.iterdir()] == ["f.png"]  # no temporary left
+
+
 def test_case_count() -> None:
     """The issue's list had 63 hostile inputs; this file covers at least as many."""
     n = len(SCENARIO_CASES) + len(CATALOG_CASES) + len(USAGE_CASES) + len(API_IDS) + len(SUBPROCESS_CASES) + 2
