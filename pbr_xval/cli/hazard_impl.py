@@ -145,7 +145,7 @@ def constrain_command(
         return _error(con, str(exc))
     sources = sorted({c.source for c in cfg.branches if c.source})
     notes = list(cfg.notes) + sorted({n for c in cfg.branches for n in c.notes})
-    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources])
+    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources], cfg.given_mean)
     s = res.summary
     k = 0.01 if res.im == "PGV" else G
     u = "cm/s" if res.im == "PGV" else "g"

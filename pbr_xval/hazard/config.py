@@ -17,6 +17,7 @@
     # [[hazard.quantile]]
     # file = "hazard/quantile_curve-0.05-PGA_0.csv"
     # q = 0.05
+    # mean = "hazard/hazard_curve-mean-PGA_0.csv"   # optional with fractiles: drawn for reference
 
     [[rock]]
     id = "rock_A"
@@ -57,6 +58,7 @@ class ConstrainConfig:
     hazard_mode: str = "branches"
     path: Path = field(default_factory=Path)
     notes: list[str] = field(default_factory=list)
+    given_mean: HazardCurve | None = None
 
 
 def _req(d: dict[str, Any], key: str, where: str, expected: str) -> Any:
@@ -137,6 +139,16 @@ def load_config(path: str | Path) -> ConstrainConfig:
                      "to its neighbouring fractiles (an approximation of the distribution)")  # fmt: skip
     else:
         raise HazardInputError(f"{where}: no [[hazard.branch]] or [[hazard.quantile]]; expected one of them")
+    given_mean = None
+    if "mean" in hz:
+        if mode != "quantiles":
+            raise HazardInputError(
+                f"{where}: key 'mean' is for fractile input; with branches the mean is computed"
+            )
+        given_mean = read_hazard_curves(base / str(hz["mean"]), site_t, tail)[0]
+        notes.append(
+            "the given mean curve is drawn for reference; before/after statistics use the fractile branches"
+        )
     if not branches:
         raise HazardInputError(f"{where}: no hazard curves read; expected at least one")
     rocks_raw = _req(raw, "rock", str(p), "[[rock]] tables")
@@ -159,4 +171,6 @@ def load_config(path: str | Path) -> ConstrainConfig:
         except HazardInputError as exc:
             raise HazardInputError(f"{w}: {exc}") from None
         rocks.append(RockInput(rid, cache[f][fid], age))
-    return ConstrainConfig(str(raw.get("name", p.stem)), branches, rocks, joint, rate, qs, mode, p, notes)
+    return ConstrainConfig(
+        str(raw.get("name", p.stem)), branches, rocks, joint, rate, qs, mode, p, notes, given_mean
+    )

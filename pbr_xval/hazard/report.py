@@ -51,7 +51,7 @@ def _png(fig: Any) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _fig_curves(c: Constraint) -> str:
+def _fig_curves(c: Constraint, given_mean: Any = None) -> str:
     from pbr_xval.report.style import subplots
 
     fig, ax = subplots(figsize=(7.0, 4.8))
@@ -66,6 +66,10 @@ def _fig_curves(c: Constraint) -> str:
                     label=f"{lo_q:.0%}–{hi_q:.0%} after (constrained)")  # fmt: skip
     ax.plot(x, c.mean(), color="black", lw=2.0, ls="--", label="mean before")
     ax.plot(x, c.mean(True), color=_RED, lw=2.2, label="mean after (constrained)")
+    if given_mean is not None:
+        ax.plot(
+            given_mean.levels, given_mean.rates, color="black", lw=1.2, ls=":", label="given mean (input)"
+        )
     ax.axhline(
         c.rate_of_interest, color=_BLUE, lw=0.9, ls=":", label=f"rate of interest {c.rate_of_interest:g} /yr"
     )
@@ -136,8 +140,12 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
 
 
 def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: str = "constrain",
-                 notes: list[str] | None = None, sources: list[str] | None = None) -> Path:  # fmt: skip
-    """Write the report files into ``out``; returns the path of ``index.html``."""
+                 notes: list[str] | None = None, sources: list[str] | None = None,
+                 given_mean: Any = None) -> Path:  # fmt: skip
+    """Write the report files into ``out``; returns the path of ``index.html``.
+
+    ``given_mean`` (a :class:`~pbr_xval.hazard.curves.HazardCurve`): an input mean curve drawn for
+    reference when the hazard came as fractiles."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     s = c.summary
@@ -189,7 +197,7 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
          _fmt(s.get("mean_rate_after_at_that_im", math.nan), "1/yr", 3),
          f"× {s.get('mean_rate_after_at_that_im', math.nan) / r:.3g}" if math.isfinite(s.get("mean_rate_after_at_that_im", math.nan)) else "–"],
     ]  # fmt: skip
-    figs = [(_fig_curves(c), "Hazard curves: branches (grey), mean and 5–95 % band before (black, grey) and after (red)."),
+    figs = [(_fig_curves(c, given_mean), "Hazard curves: branches (grey), mean and 5–95 % band before (black, grey) and after (red)."),
             (_fig_weights(c), "Prior and posterior branch weights."),
             (_fig_fragility(rocks, c), "Fragility of each rock (band: the fit's θ interval at its β, when known).")]  # fmt: skip
     fig_html = "".join(f'<figure><img src="{u}" alt="{html.escape(cap)}"><figcaption>{html.escape(cap)}</figcaption></figure>'

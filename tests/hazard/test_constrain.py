@@ -216,7 +216,14 @@ def test_fractile_input(tmp_path):
             f"{x},{f * r}\n" for x, r in ((0.05, 1e-2), (0.1, 3e-3), (0.2, 6e-4), (0.4, 8e-5), (0.8, 6e-6))
         )
         body += f'[[hazard.quantile]]\nfile = "q{q}.csv"\nq = {q}\n'
-    toml = "[hazard]\n" + body + '[[rock]]\nid="A"\nfragility="f.csv"\nage=1e4\nage_sd=1e3\n'
-    cfg = load_config(_write(tmp_path, toml, **{"f.csv": FRAG, **files}))
+    toml = (
+        '[hazard]\nmean = "q0.16.csv"\n' + body + '[[rock]]\nid="A"\nfragility="f.csv"\nage=1e4\nage_sd=1e3\n'
+    )
+    p = _write(tmp_path, toml, **{"f.csv": FRAG, **files})
+    cfg = load_config(p)
     np.testing.assert_allclose([c.weight for c in cfg.branches], [0.105, 0.395, 0.395, 0.105])
-    assert cfg.hazard_mode == "quantiles" and cfg.notes
+    assert cfg.hazard_mode == "quantiles" and cfg.notes and cfg.given_mean is not None
+    con = _Quiet()
+    assert constrain_command(p, tmp_path / "out", console=con) == 0
+    page = (tmp_path / "out" / "index.html").read_text()
+    assert "fractile curves: each is a branch" in page
