@@ -332,13 +332,14 @@ def _points_z_and_xy(
     contact = np.empty((n, 3))
     spread = np.zeros(n)
     step = max(1, _CHUNK // max(k, 1))
+    hull_t = np.ascontiguousarray(sc.hull.T)
     for a in range(0, n, step):
         b = min(n, a + step)
-        z = np.einsum("nj,kj->nk", rot[a:b, 2, :], sc.hull) + com[a:b, 2:3]  # (m, k)
+        z = rot[a:b, 2, :] @ hull_t + com[a:b, 2:3]  # (m, k)
         zmin = z.min(axis=1)
         low[a:b] = zmin
-        near = (z <= zmin[:, None] + tol).astype(float)
-        contact[a:b] = (near @ sc.hull) / near.sum(axis=1)[:, None]
+        near = z <= zmin[:, None] + tol
+        contact[a:b] = (near.astype(float) @ sc.hull) / np.count_nonzero(near, axis=1)[:, None]
         if sc.support.size >= 2:
             zs = z[:, sc.support]
             spread[a:b] = zs.max(axis=1) - zs.min(axis=1)
