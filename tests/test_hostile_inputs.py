@@ -188,6 +188,46 @@ SCENARIO_CASES: list[tuple[str, str | None, list[str], str]] = [
         [],
         "excitation.path",
     ),
+    (
+        "record-truncated-at2",
+        edit(
+            BASE,
+            BASE[BASE.index("[excitation]") : BASE.index("[toppling]")],
+            '[excitation]\ntype = "record"\npath = "one.at2"\n\n',
+        ),
+        [],
+        "excitation.path",
+    ),
+    (
+        "record-nan-sample",
+        edit(
+            BASE,
+            BASE[BASE.index("[excitation]") : BASE.index("[toppling]")],
+            '[excitation]\ntype = "record"\npath = "nan.txt"\ndt = 0.01\nunits = "g"\n\n',
+        ),
+        [],
+        "nan.txt",
+    ),
+    (
+        "record-empty",
+        edit(
+            BASE,
+            BASE[BASE.index("[excitation]") : BASE.index("[toppling]")],
+            '[excitation]\ntype = "record"\npath = "empty.txt"\ndt = 0.01\nunits = "g"\n\n',
+        ),
+        [],
+        "empty.txt",
+    ),
+    (
+        "mesh-garbage",
+        edit(
+            BASE,
+            BASE[BASE.index("[rock]") : BASE.index("[contact]")],
+            MESH_ROCK.replace("UNITS", "m").replace("box.obj", "garbage.obj") + "\n",
+        ),
+        [],
+        "garbage.obj",
+    ),
     ("name-with-space", edit(BASE, 'name = "block"', 'name = "my block"'), [], "name"),
     ("toppling-criterion-unknown", edit(BASE, '"critical_tilt"', '"falls"'), [], "toppling.criterion"),
     ("toppling-factor-zero", BASE + "factor = 0.0\n", [], "toppling.factor"),
@@ -252,6 +292,10 @@ def test_scenario_cli(tmp_path: Path, text: str | None, args: list[str], needle:
         else:
             scn.write_text(text)
     box_obj(tmp_path / "box.obj", size=5.0)  # 2 × 2 × 6 units: 6,000 km in km
+    (tmp_path / "garbage.obj").write_text("not a mesh\n")
+    (tmp_path / "one.at2").write_text("x")
+    (tmp_path / "nan.txt").write_text("0.1\nnan\n0.2\n")
+    (tmp_path / "empty.txt").write_text("")
     (tmp_path / "exists.parquet").write_bytes(b"not yours")
     args = [a.replace("{tmp}", str(tmp_path)) for a in args]
     if args and args[0] == "threshold":
