@@ -158,5 +158,9 @@ def constrain_command(
                      f"{s['mean_im_after'] / k:.3g} {u} ({100 * s['mean_im_change']:+.1f} %); 5–95 % range "
                      f"{s['im05_before'] / k:.3g}–{s['im95_before'] / k:.3g} → {s['im05_after'] / k:.3g}–"
                      f"{s['im95_after'] / k:.3g} {u} (width × {s['range_ratio']:.3g})"), highlight=False)  # fmt: skip
+    if not math.isfinite(s["mean_im_before"]):
+        lo, hi = float(res.mean().min()), float(res.mean().max())
+        con.print(f"  note: λ = {s['rate_of_interest']:g}/yr is outside the mean curve's range on the common IM grid "
+                  f"({lo:.3g}–{hi:.3g}/yr); choose --rate inside it", highlight=False)  # fmt: skip
     con.print(f"report: {page}", highlight=False)
     return 0

@@ -361,7 +361,8 @@ def constrain(
 
 def _summary(c: Constraint, branches: list[HazardCurve]) -> dict[str, Any]:
     r = c.rate_of_interest
-    ims = np.array([b.im_at_rate(r) for b in branches])
+    # on the common grid (no extrapolation): a branch that does not reach r there is left out
+    ims = np.array([c.im_at_rate(c.rates[i], r) for i in range(len(branches))])
     ok = np.isfinite(ims)
     s: dict[str, Any] = {
         "rate_of_interest": r,

@@ -227,3 +227,12 @@ def test_fractile_input(tmp_path):
     assert constrain_command(p, tmp_path / "out", console=con) == 0
     page = (tmp_path / "out" / "index.html").read_text()
     assert "fractile curves: each is a branch" in page
+
+
+def test_rate_outside_the_curves_is_said(example, tmp_path):
+    out, _ = example
+    con = _Quiet()
+    assert constrain_command(out / "inputs" / "constrain.toml", tmp_path, rate=1e-12, console=con) == 0
+    assert any("outside the mean curve's range" in line for line in con.lines)
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert math.isnan(s["mean_im_before"]) and s["branches_reaching_rate"] == 0
