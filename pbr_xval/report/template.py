@@ -67,7 +67,7 @@ nav a { margin-right: 1em; }
 <section id="run" class="run">
 <div><h3>Scenarios</h3>
 <ul>
-{% for sc in scenarios %}<li>{% if sc.label %}<strong>{{ sc.label }}</strong>: {% endif %}{{ sc.summary or sc.name }}</li>
+{% for sc in run_scenarios %}<li>{% if sc.label %}<strong>{{ sc.label }}</strong>: {% endif %}{{ sc.summary or sc.name }}</li>
 {% endfor %}</ul></div>
 <div><h3>Engines and settings</h3>
 <ul>

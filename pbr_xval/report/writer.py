@@ -538,6 +538,7 @@ def write_report(
             verdict_headlines=[md_inline(h) for h in verdict.headlines],
             verdict_findings=[md_inline(f) for f in verdict.findings],
             scenarios=scen,
+            run_scenarios=[sc for sc in scen if sc.get("label")] or scen,
             engines=engine_rows,
             machine=sorted((prov.get("machine") or {}).items()),
             assets=asset_names,
