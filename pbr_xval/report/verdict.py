@@ -272,16 +272,12 @@ def _threshold_case(r: StudyResult, idx: int, anchor: str, v: Verdict) -> None:
             continue
         m = _f(row[mcol])
         if m is None:
+            msg = str(row.get("message") or "")
+            text = "topples at the lowest value" if st == "topples_at_lo" else "never toppled"
             v.cells[(eng, case.key)] = Cell(
-                eng,
-                case.key,
-                "none",
-                value_text="never toppled",
-                message=str(row.get("message") or ""),
-                n_sims=n,
-                wall_s=wall,
+                eng, case.key, "none", value_text=text, message=msg, n_sims=n, wall_s=wall
             )
-            v.findings.append(f"**{eng}** never toppled on *{case.title}* ({row.get('message')}).")
+            v.findings.append(f"**{eng}** on *{case.title}*: no minimum bracketed — {msg or text}.")
             continue
         hw = _f(row[tcol]) if tcol else None
         if ref is None:
