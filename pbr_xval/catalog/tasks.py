@@ -279,6 +279,7 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     import numpy as np
 
     from pbr_xval import __version__
+    from pbr_xval.diagnostics import ensure_standard_diagnostics
     from pbr_xval.engine import NotApplicable, machine_info
     from pbr_xval.motion import intensity_measures
     from pbr_xval.runner import effective_settings
@@ -321,6 +322,8 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
             row["status"] = traj.status
             row["message"] = traj.message
             row["toppled"] = bool(traj.toppled)
+            if traj.ok:
+                row["regime"] = ensure_standard_diagnostics(traj, scene).regime
             ta = traj.toppled_at
             row["toppled_at"] = math.nan if ta is None else float(ta)
             if traj.t.size:

@@ -256,7 +256,10 @@ def threshold(
             continue
 
         def word(r: object) -> str:
-            return "topples" if r.toppled else f"stands (max θ/α {r.peak_ratio:.3f})"  # type: ignore[attr-defined]
+            reg = getattr(r, "regime", "")
+            if r.toppled:  # type: ignore[attr-defined]
+                return f"topples ({reg})" if reg else "topples"
+            return f"stands (max θ/α {r.peak_ratio:.3f}{'; ' + reg if reg else ''})"  # type: ignore[attr-defined]
 
         console.print(
             f"    confirmed by direct runs: {below.value:.6g}{u} {word(below)}, {above.value:.6g}{u} {word(above)}",

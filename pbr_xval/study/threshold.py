@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from pbr_xval.diagnostics import ensure_standard_diagnostics
 from pbr_xval.engine import Engine, Trajectory, get_engine
 from pbr_xval.runner import effective_settings
 from pbr_xval.scenario import Scenario
@@ -68,6 +69,7 @@ class Run:
     side : +1/−1, sign of the rocking angle at toppling (or at the peak when it stood).
     impacts : sign changes of the rocking angle before toppling (or in the whole run).
     simulated : False for values below the uplift bound (stand by physics, not simulated).
+    regime : what the rock did (:attr:`pbr_xval.engine.Trajectory.regime`, e.g. "rocked").
     """
 
     value: float
@@ -77,6 +79,7 @@ class Run:
     side: int = 0
     impacts: int = 0
     simulated: bool = True
+    regime: str = ""
 
 
 @dataclass(frozen=True)
@@ -402,7 +405,8 @@ def find_threshold(
             if traj.t.size:
                 max_tilt = max(max_tilt, float(np.max(traj.tilt())))
             peak, side, impacts = describe_run(traj, scene)
-            run = Run(value, traj.toppled, peak, traj.toppled_at, side, impacts)
+            regime = ensure_standard_diagnostics(traj, scene).regime
+            run = Run(value, traj.toppled, peak, traj.toppled_at, side, impacts, regime=regime)
             if progress is not None:
                 progress(count, value, run.toppled)
         cache[value] = run

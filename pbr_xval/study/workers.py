@@ -179,10 +179,8 @@ def trajectory_summary(traj: Trajectory, scene: Scene | None = None) -> dict[str
     out["energy_max_rel_change"] = _finite(d.get("energy_max_rel_change"))
     e0, e1 = _finite(d.get("energy_start_J")), _finite(d.get("energy_end_J"))
     out["energy_change_J"] = (e1 - e0) if (e0 is not None and e1 is not None) else None
-    n_imp = len(traj.impacts())
-    if not n_imp and isinstance(d.get("n_impacts"), int | float):
-        n_imp = int(d["n_impacts"])
-    out["n_impacts"] = n_imp
+    # the shared definition (pbr_xval.diagnostics) for every engine; events only as a fallback
+    out["n_impacts"] = int(d.get("impacts", len(traj.impacts())))
     if scene is not None:
         try:
             out["alpha_rad"] = float(min(scene.alpha))
