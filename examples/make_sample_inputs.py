@@ -10,8 +10,8 @@
   ``pbr_xval.motion.processing.synthetic_accelerogram(seed=2026)``: band-passed (0.3–8 Hz)
   white noise under a Saragoni–Hart envelope, baseline-corrected to zero final velocity and
   displacement, PGA 0.3 g (2.942 m/s²).
-* ``examples/scanned_rock.toml`` — written by ``pbr-xval rock examples/rocks/synthetic_pbr.obj
-  --scenario examples/scanned_rock.toml``.
+* ``examples/rocks/scanned_rock.toml`` — written by ``pbr-xval rock examples/rocks/synthetic_pbr.obj
+  --scenario examples/rocks/scanned_rock.toml``.
 
 ``tests/geometry/test_geometry_pipeline.py`` and ``tests/motion/test_records.py`` check that the committed files are what this script makes.
 
@@ -57,7 +57,7 @@ def make_records(folder: Path = HERE / "records") -> tuple[Path, Path]:
     return at2, txt
 
 
-def make_scenario(path: Path = HERE / "scanned_rock.toml") -> Path:
+def make_scenario(path: Path = HERE / "rocks" / "scanned_rock.toml") -> Path:
     from pbr_xval.cli.rock_impl import write_rock_scenario
     from pbr_xval.geometry.rockmodel import build_rock_model
 

@@ -18,7 +18,7 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 @pytest.fixture(scope="module")
 def scanned():
     # shorter than the example (4 s): the one-sine pulse lasts 1 s and a toppling rock is down by 2.5 s
-    return load_scenario(EXAMPLES / "scanned_rock.toml").with_value("duration", 2.5)
+    return load_scenario(EXAMPLES / "rocks" / "scanned_rock.toml").with_value("duration", 2.5)
 
 
 def _engine_available(name):
@@ -63,9 +63,9 @@ def test_azimuth_study_file_runs_through_the_study_runner(tmp_path):
 
     assert "azimuth" in STUDY_MODULES
     (tmp_path / "s.toml").write_text(
-        (EXAMPLES / "scanned_rock.toml")
+        (EXAMPLES / "rocks" / "scanned_rock.toml")
         .read_text()
-        .replace('path = "rocks/', f'path = "{EXAMPLES}/rocks/')
+        .replace('path = "synthetic_pbr.obj"', f'path = "{EXAMPLES}/rocks/synthetic_pbr.obj"')
         .replace("duration = 4.0", "duration = 2.5")
     )
     (tmp_path / "study.toml").write_text(
