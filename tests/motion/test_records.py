@@ -436,7 +436,7 @@ def test_example_record_scenario_compiles_at_its_target_pga():
     from pbr_xval.scenario import load_scenario
     from pbr_xval.scene import compile_scene
 
-    scn = load_scenario(EXAMPLES / "record_scenario.toml")
+    scn = load_scenario(EXAMPLES / "records" / "record_scenario.toml")
     scene = compile_scene(scn)
     assert scene.excitation.horizontal.pga == pytest.approx(4.0, rel=1e-12)
     assert scene.info()["excitation"]["horizontal"]["units"] == "g"
