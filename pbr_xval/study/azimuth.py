@@ -291,7 +291,7 @@ def run(
         f"({len(azimuths)} directions; {PHI_CONVENTION}); PGA at the level vs the quasi-static "
         "uplift bound min(g·tan α_u(φ), g·tan α_u(φ+180°))",
         "",
-        "| engine | φ [deg] | status | minimum | ± | PGA [m/s²] | bound [m/s²] | PGA/bound | sims |",
+        f"| engine | φ [deg] | status | minimum [{unit or '-'}] | ± | PGA [m/s²] | bound [m/s²] | PGA/bound | sims |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for _, r in table_df.iterrows():
