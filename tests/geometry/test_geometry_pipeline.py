@@ -450,6 +450,11 @@ def test_newcomer_route_on_sp1(tmp_path):
     pytest.importorskip("mujoco")
     level, bound = _newcomer(SP1, tmp_path, "--mass", "353.8")
     assert level >= bound * (1 - 0.05)
+    # docs/scenarios.md: g·tan α of the critical tilt (2.59 m/s²) is not a bound — the pulse topples
+    # the rough-based rock well below it (measured 1.40 m/s²)
+    g_tan_alpha = float((tmp_path / "s.toml").read_text().split("(g·tan α = ")[1].split()[0])
+    assert g_tan_alpha == pytest.approx(2.594, abs=0.01)
+    assert level < 0.8 * g_tan_alpha
     from pbr_xval.scenario import load_scenario
 
     scn = load_scenario(tmp_path / "s.toml")
