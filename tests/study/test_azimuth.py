@@ -31,7 +31,15 @@ def _engine_available(name):
     return True
 
 
-@pytest.mark.parametrize("engine", ["pybullet", "mujoco"])
+@pytest.mark.parametrize(
+    "engine",
+    [
+        "pybullet",
+        "mujoco",
+        pytest.param("dart", marks=pytest.mark.slow),  # 38 s
+        pytest.param("reference", marks=pytest.mark.slow),  # 18 s
+    ],
+)
 def test_every_direction_topples_at_or_above_the_uplift_bound(scanned, engine):
     """Searching from 0.8× the bound, no engine topples the rock below g·tan α_u in any direction
     (measured PGA/bound at φ = 0°, 120°, 240°: PyBullet 1.16, 1.15, 1.21; MuJoCo 1.21, 1.17, 1.28;
