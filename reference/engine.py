@@ -206,7 +206,7 @@ class ReferenceEngine(EngineBase):
         }
 
     def versions(self) -> dict[str, str]:
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         return {"pbr_xval": __version__, "numpy": np.__version__}
 
@@ -289,6 +289,7 @@ class ReferenceEngine(EngineBase):
         next_out = 0.0
         guard = self._near_topple_guard(scene)
         wall0 = time.perf_counter()
+        cpu0 = time.process_time()
         t = 0.0
         message = ""
         if isinstance(load, _StepLoad):
@@ -411,12 +412,14 @@ class ReferenceEngine(EngineBase):
         except Exception as exc_:  # never raise from inside the stepping
             message = f"reference: stepping failed at t = {t:.6g} s: {type(exc_).__name__}: {exc_}"
         wall = time.perf_counter() - wall0
+        cpu = time.process_time() - cpu0
         diag = stepper.stats.summary()
         diag.update(
             n_nodes=int(nodes.shape[0]),
             epsilon_m=float(s["epsilon"]),
             simulated_s=float(t),
             wall_s=wall,
+            cpu_s=cpu,
             wall_per_simulated_s=wall / t if t > 0 else float("nan"),
             lcp_time_fraction=diag["lcp_time_s"] / wall if wall > 0 else float("nan"),
             held_at_rest_from_s=held_from,

@@ -475,28 +475,29 @@ def _check(A, b, f, status, mu, cons_tol):
 
 
 @njit(cache=True)
-def _range_project(a, r, rtol):
-    """Orthogonal projection of r (n,) onto the column space of a (n, n): modified
-    Gram–Schmidt with column pivoting, columns whose remaining norm is below ``rtol`` of the
-    largest column norm are taken as dependent."""
-    n = a.shape[0]
+def _basis(a, rtol):
+    """Orthonormal basis (n, r) of the column space of a (n, m): modified Gram–Schmidt with
+    column pivoting; a column whose remaining norm is below ``rtol`` of the largest column
+    norm counts as dependent."""
+    n, m = a.shape
     q = a.copy()
-    norms = np.empty(n)
+    norms = np.empty(m)
     big = 0.0
-    for j in range(n):
+    for j in range(m):
         s = 0.0
         for i in range(n):
             s += q[i, j] * q[i, j]
         norms[j] = s
         big = max(big, s)
-    used = np.zeros(n, dtype=np.bool_)
-    out = np.zeros(n)
+    used = np.zeros(m, dtype=np.bool_)
+    out = np.empty((n, min(n, m)))
+    r = 0
     if big == 0.0:
-        return out
-    for _ in range(n):
+        return out[:, :0]
+    for _ in range(min(n, m)):
         jb = -1
         best = rtol * rtol * big
-        for j in range(n):
+        for j in range(m):
             if not used[j] and norms[j] > best:
                 best = norms[j]
                 jb = j
@@ -505,27 +506,26 @@ def _range_project(a, r, rtol):
         used[jb] = True
         nb = math.sqrt(norms[jb])
         for i in range(n):
-            q[i, jb] /= nb
-        c = 0.0
-        for i in range(n):
-            c += q[i, jb] * r[i]
-        for i in range(n):
-            out[i] += c * q[i, jb]
-        for j in range(n):
+            out[i, r] = q[i, jb] / nb
+        for j in range(m):
             if not used[j]:
                 d = 0.0
                 for i in range(n):
-                    d += q[i, jb] * q[i, j]
+                    d += out[i, r] * q[i, j]
                 s = 0.0
                 for i in range(n):
-                    q[i, j] -= d * q[i, jb]
+                    q[i, j] -= d * out[i, r]
                     s += q[i, j] * q[i, j]
                 norms[j] = s
-    return out
+        r += 1
+    return out[:, :r]
 
 
 @njit(cache=True)
-def _clamped_solve(A, b, status, least_squares):
+def _clamped_solve(A, b, status, scale):
+    """Clamped rows of ``status`` solved for the forces f with A_EE f_E = −b_E in the
+    least-squares sense, minimising ‖f_E / scale_E‖ among the solutions (``scale``: (3k,)
+    weights, 1 for the plain minimum-norm split)."""
     k = status.size
     rows = np.empty(3 * k, dtype=np.int64)
     ne = 0
@@ -542,26 +542,46 @@ def _clamped_solve(A, b, status, least_squares):
         return f, True
     sub = np.empty((ne, ne))
     rhs = np.empty(ne)
-    tr = 0.0
+    # symmetric scaling: (S A S) u = −S b, f = S u (S = diag(scale_E))
     for p in range(ne):
-        rhs[p] = -b[rows[p]]
+        sp = scale[rows[p]]
+        rhs[p] = -b[rows[p]] * sp
         for q in range(ne):
-            sub[p, q] = A[rows[p], rows[q]]
-        tr += sub[p, p]
-    if least_squares:
-        # minimum-norm least-squares solution: the right-hand side is first projected onto
-        # the range of the clamped block (the part no force can reach is left over), then
-        # the now consistent system is solved with the shift below (minimum-norm split of
-        # redundant forces)
-        rhs = _range_project(sub, rhs, 1e-10)
-    shift = 1e-13 * tr / ne
+            sub[p, q] = sp * A[rows[p], rows[q]] * scale[rows[q]]
+    # minimum-norm least-squares solution x = A⁺ rhs: with Qc, Qr orthonormal bases of the
+    # column and row spaces of the (rank-r) block, x = Qr (Qcᵀ A Qr)⁻¹ Qcᵀ rhs — the part of
+    # rhs outside the column space (which no force can reach) is left over, and x has no
+    # component along the redundant (null-space) directions
+    qc = _basis(sub, 1e-10)
+    qr = _basis(sub.T.copy(), 1e-10)
+    r = qc.shape[1]
+    if qr.shape[1] != r:
+        return f, False
+    if r == 0:
+        return f, True
+    aq = np.zeros((ne, r))  # sub @ qr
     for p in range(ne):
-        sub[p, p] += shift
-    x, ok = _lu_solve(sub, rhs)
+        for c in range(r):
+            acc = 0.0
+            for q in range(ne):
+                acc += sub[p, q] * qr[q, c]
+            aq[p, c] = acc
+    K = np.zeros((r, r))  # qcᵀ sub qr
+    g = np.zeros(r)  # qcᵀ rhs
+    for c1 in range(r):
+        for p in range(ne):
+            g[c1] += qc[p, c1] * rhs[p]
+            for c2 in range(r):
+                K[c1, c2] += qc[p, c1] * aq[p, c2]
+    y, ok = _lu_solve(K, g)
     if not ok:
         return f, False
+    x = np.zeros(ne)
     for p in range(ne):
-        f[rows[p]] = x[p]
+        for c in range(r):
+            x[p] += qr[p, c] * y[c]
+    for p in range(ne):
+        f[rows[p]] = x[p] * scale[rows[p]]
     return f, True
 
 
@@ -570,10 +590,9 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
     """Exact solve of eqs. 3.6–3.7 on a guessed active set, verified; a few corrections.
 
     Clamped rows (all three of a sticking contact, the normal of a sliding one) satisfy
-    A_EE f_E = −b_E.  It is solved first with a tiny Tikhonov shift (1e-13 of the
-    diagonal: the minimum-norm split of redundant forces when b_E is in the range of
-    A_EE), then, if that answer fails, as the minimum-norm least-squares solution (b_E
-    projected onto the range of A_EE first, :func:`_range_project`).  An answer is accepted only if it satisfies every
+    A_EE f_E = −b_E, solved as the minimum-norm least-squares solution (through orthonormal
+    bases of the block's column and row spaces, :func:`_basis`): redundant forces are split
+    with minimum norm, and the part of b_E no force can reach is left over.  An answer is accepted only if it satisfies every
     condition of eqs. 3.6–3.7 — f_n ≥ 0, a_n ≥ 0 on free contacts, the static cone on
     sticking ones — and the clamped rows' residual is within 1e-9 |b| + ``cons_tol``
     (``cons_tol``: the centripetal part |ω|² r of b, which no contact force can cancel
@@ -594,14 +613,43 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
     k = st.size
     f = np.zeros(3 * k)
     a = b.copy()
+    f1 = f.copy()
+    a1 = a.copy()
+    scale = np.ones(3 * k)
     for _ in range(max_rounds):
-        for ls in (False, True):
-            f, solved = _clamped_solve(A, b, st, ls)
+        for attempt in range(2):
+            if attempt == 1:
+                # the plain split failed: weight the friction of each sticking contact by
+                # √(μ f_n) of the last answer, so that redundant friction is shared in
+                # proportion to the cone radii (uniform use of the cones under shear)
+                fmean = 0.0
+                cnt = 0
+                for i in range(k):
+                    if st[i] == 1 and f[3 * i] > 0:
+                        fmean += mu[i] * f[3 * i]
+                        cnt += 1
+                if cnt == 0 or fmean <= 0:
+                    break
+                fmean /= cnt
+                for i in range(k):
+                    s = math.sqrt(max(mu[i] * f[3 * i], 1e-6 * fmean) / fmean)
+                    scale[3 * i + 1] = s
+                    scale[3 * i + 2] = s
+            f_try, solved = _clamped_solve(A, b, st, scale)
             if not solved:
                 continue
+            f = f_try
             ok, a = _check(A, b, f, st, mu, cons_tol)
             if ok:
                 return True, f, a, st
+            if attempt == 0:
+                a1 = a.copy()
+                f1 = f.copy()
+        # correction of the guess from the least-squares answer
+        f = f1
+        a = a1
+        for j in range(3 * k):
+            scale[j] = 1.0
         # correction of the guess from the last (least-squares) answer
         changed = False
         fmax = 0.0

@@ -73,14 +73,46 @@ def random_p_matrix(rng: np.random.Generator, n: int, kind: str) -> np.ndarray:
             return M
 
 
+def brute_force_w(M: np.ndarray, q: np.ndarray, tol: float = 1e-9) -> list[np.ndarray]:
+    """w = M z + q of every solution found by enumerating the 2^n complementary bases, the
+    clamped block solved in the least-squares sense (tolerates singular blocks)."""
+    n = q.size
+    scale = max(1.0, float(np.abs(q).max(initial=0.0)))
+    out = []
+    for k in range(n + 1):
+        for S in itertools.combinations(range(n), k):
+            S = list(S)
+            z = np.zeros(n)
+            if S:
+                z[S] = np.linalg.lstsq(M[np.ix_(S, S)], -q[S], rcond=1e-12)[0]
+            w = M @ z + q
+            if (
+                z.min() >= -tol * scale
+                and w.min() >= -tol * scale
+                and np.abs(w[S]).max(initial=0.0) <= tol * scale
+            ):
+                out.append(w)
+    return out
+
+
 def assert_lcp_solution(res: LCPResult, M: np.ndarray, q: np.ndarray, tol: float = 1e-9) -> None:
+    """``res.z`` solves the LCP (conditions checked on w recomputed here, not on ``res.w``),
+    and, for symmetric PSD problems small enough to enumerate, its w is the one every
+    solution shares (brute force over the complementary bases: an independent solver)."""
     assert res.ok, (res.status, res.message)
-    scale = max(1.0, np.abs(q).max(initial=0.0), np.abs(M).max(initial=0.0) * np.abs(res.z).max(initial=0.0))
-    np.testing.assert_allclose(res.w, M @ res.z + q, atol=tol * scale)
-    r = res.residuals()
-    assert r["z_negativity"] <= tol * scale
-    assert r["w_negativity"] <= tol * scale
-    assert r["complementarity"] <= tol * scale * max(1.0, np.abs(res.z).max(initial=0.0))
+    z = res.z
+    w = M @ z + q
+    scale = max(1.0, np.abs(q).max(initial=0.0), np.abs(M).max(initial=0.0) * np.abs(z).max(initial=0.0))
+    assert z.min(initial=0.0) >= -tol * scale
+    assert w.min(initial=0.0) >= -tol * scale
+    assert np.abs(z * w).max(initial=0.0) <= tol * scale * max(1.0, np.abs(z).max(initial=0.0))
+    sym = (
+        M.size and np.allclose(M, M.T, atol=1e-12 * np.abs(M).max()) and np.linalg.eigvalsh(M).min() >= -1e-10
+    )
+    if sym and q.size <= 10:
+        ref = brute_force_w(M, q)
+        assert ref, "brute force found no solution"
+        np.testing.assert_allclose(w, ref[0], atol=1e-7 * scale)
 
 
 def skew(r: np.ndarray) -> np.ndarray:
@@ -538,11 +570,17 @@ def test_fully_degenerate_rank_one(n: int) -> None:
 
 def test_friction_random_box_configurations() -> None:
     """Random contact sets under gravity, horizontal push and torque: every solve must
-    converge with all eq. 3.6-3.7 residuals at round-off level, and its accelerations must
-    be consistent with Newton-Euler for the forces it returns."""
+    converge with all eq. 3.6-3.7 residuals at round-off level. Where an independent solver —
+    the 64-facet friction-pyramid LCP solved by Lemke's pivoting — finds every loaded contact
+    sticking, the body's acceleration must be the same (sticking is where the pyramid is
+    exact; measured agreement to 1e-12 g). With sliding or tipping the Coulomb problem of
+    several contacts can have several solutions (measured: the pyramid's answer does not
+    converge to the cone's as the facets are refined for 4 of the 25 sets), so those are
+    checked by the residuals only."""
     rng = np.random.default_rng(7)
     W = box_inverse_mass()
     methods = set()
+    checked = 0
     for _ in range(25):
         k = int(rng.integers(1, 9))
         pts = np.column_stack([rng.uniform(-0.2, 0.2, k), rng.uniform(-0.2, 0.2, k), np.full(k, -0.6)])
@@ -553,5 +591,14 @@ def test_friction_random_box_configurations() -> None:
         res = solve_friction_cone(A, b, mu, max_iter=3000)
         methods.add(res.method)
         _assert_friction_ok(res, MASS * G, G)
-        np.testing.assert_allclose(res.a, J @ W @ (J.T @ res.f + F_ext), atol=1e-9 * G)
+        pyr = solve_friction_pyramid(A, b, mu, n_facets=64)
+        assert pyr.converged, pyr.status
+        P = pyr.a.reshape(k, 3)
+        loaded = pyr.f.reshape(k, 3)[:, 0] > 1e-9 * MASS * G
+        if np.all(np.abs(P[loaded, 1:]) <= 1e-9 * G):
+            checked += 1
+            u_cone = W @ (J.T @ res.f + F_ext)
+            u_pyr = W @ (J.T @ pyr.f + F_ext)
+            np.testing.assert_allclose(u_cone, u_pyr, atol=1e-9 * G)
+    assert checked >= 10, checked  # measured: 15 of the 25 sets stick
     assert "pgs_cone" in methods
