@@ -155,7 +155,7 @@ class DartEngine(EngineBase):
 
     def versions(self) -> dict[str, str]:
         dart = _import_dart()
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         return {"pbr_xval": __version__, "dartpy": getattr(dart, "__version__", "?"), "numpy": np.__version__}
 

@@ -166,7 +166,7 @@ class MuJoCoEngine(EngineBase):
         }
 
     def versions(self) -> dict[str, str]:
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         mujoco = _import_mujoco()
         return {"pbr_xval": __version__, "mujoco": mujoco.__version__, "numpy": np.__version__}

@@ -159,7 +159,7 @@ class PyBulletEngine(EngineBase):
     def versions(self) -> dict[str, str]:
         import importlib.metadata
 
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         out = {"pbr_xval": __version__, "numpy": np.__version__}
         try:

@@ -10,15 +10,9 @@ Importing this package imports no physics engine; engines load on first use.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:
-    __version__ = version("pbr-xval")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
-
 from pbr_xval.engine import Trajectory, get_engine, list_engines
 from pbr_xval.scenario import Scenario, ScenarioError, load_scenario
+from pbr_xval.version import __version__
 
 __all__ = [
     "Scenario",

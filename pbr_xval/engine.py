@@ -30,12 +30,17 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
+from pbr_xval.errors import EngineNotAvailable, EngineSettingsError, NotApplicable
+from pbr_xval.registry import ENTRY_POINT_GROUP, refresh_engines, registered_names
+from pbr_xval.registry import entry_points as _entry_points
+
 if TYPE_CHECKING:
     import pandas as pd
 
     from pbr_xval.scene import Scene
 
 __all__ = [
+    "ENTRY_POINT_GROUP",
     "KNOWN_ENGINES",
     "Capabilities",
     "Engine",
@@ -47,6 +52,8 @@ __all__ = [
     "get_engine",
     "list_engines",
     "merge_settings",
+    "refresh_engines",
+    "registered_names",
 ]
 
 #: engine name -> the pip package that provides it (for install hints)
@@ -56,19 +63,8 @@ KNOWN_ENGINES: dict[str, str] = {
     "dart": "dartpy",
 }
 
-ENTRY_POINT_GROUP = "pbr_xval.engines"
 
 
-class EngineNotAvailable(ImportError):
-    """An engine is unknown or its third-party package is not installed."""
-
-
-class EngineSettingsError(ValueError):
-    """A settings dictionary names a key the engine does not have, or a bad value."""
-
-
-class NotApplicable(ValueError):
-    """The engine cannot represent this scene (e.g. a 2-D model asked for 3-D shaking)."""
 
 
 @dataclass(frozen=True)
@@ -289,7 +285,7 @@ class Trajectory:
 
     def metadata(self) -> dict[str, Any]:
         """Provenance and summary as a JSON-serialisable dict."""
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         return {
             "schema": self.SCHEMA_VERSION,
@@ -493,17 +489,6 @@ def _pkg_version(dist: str) -> str:
 
 
 # ---------------------------------------------------------------------- registry
-@functools.lru_cache(maxsize=1)
-def _entry_points() -> dict[str, str]:
-    eps = importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)
-    return {ep.name: ep.value for ep in eps}
-
-
-def refresh_engines() -> None:
-    """Forget the cached entry points (after installing a plugin at run time)."""
-    _entry_points.cache_clear()
-
-
 def list_engines() -> dict[str, dict[str, Any]]:
     """Every registered engine with its target, whether it imports, and its versions.
 
@@ -520,11 +505,6 @@ def list_engines() -> dict[str, dict[str, Any]]:
             info.update(available=False, error=str(exc))
         out[name] = info
     return out
-
-
-def registered_names() -> list[str]:
-    """Names of the registered engines (nothing is imported)."""
-    return sorted(_entry_points())
 
 
 def get_engine(name: str | type | Engine) -> Engine:

@@ -35,7 +35,7 @@ def check_rock(rock_spec: Any, mass: float, volume: float, extents: Any, *, wher
     mass : kg; volume : m³ (of the closed mesh); extents : (3,) m, bounding-box sizes.
     where : the file (or scenario name) that prefixes the message.
     """
-    from pbr_xval.scenario import ScenarioError
+    from pbr_xval.errors import ScenarioError
 
     size = max(float(x) for x in extents)
     lo, hi = SIZE_RANGE

@@ -43,7 +43,12 @@ from pydantic import (
     model_validator,
 )
 
+from pbr_xval.errors import ScenarioError
+from pbr_xval.hashing import file_sha256
+from pbr_xval.units import UNIT_SCALE
+
 __all__ = [
+    "UNIT_SCALE",
     "Contact",
     "Excitation",
     "Model",
@@ -52,6 +57,7 @@ __all__ = [
     "Scenario",
     "ScenarioError",
     "Toppling",
+    "file_sha256",
     "load_scenario",
 ]
 
@@ -61,11 +67,6 @@ Finite = Annotated[float, Field(allow_inf_nan=False)]
 Vec3Pos = Annotated[list[PositiveFloat], Field(min_length=3, max_length=3)]
 Vec3 = Annotated[list[Finite], Field(min_length=3, max_length=3)]
 
-UNIT_SCALE = {"m": 1.0, "cm": 0.01, "mm": 0.001, "km": 1000.0, "ft": 0.3048, "in": 0.0254}
-
-
-class ScenarioError(ValueError):
-    """A scenario file is invalid; the message names the file, the key and what was expected."""
 
 
 class Strict(BaseModel):
@@ -548,7 +549,7 @@ class Scenario(Strict):
     @classmethod
     def _check_engines_table(cls, engines: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
         """Engine names must be registered (a typo'd table is not ignored); values are range-checked."""
-        from pbr_xval.engine import registered_names
+        from pbr_xval.registry import registered_names
         from pbr_xval.settings_spec import check_settings
 
         known = registered_names()
@@ -627,14 +628,6 @@ def _drop_none(d: Any) -> Any:
     if isinstance(d, list):
         return [_drop_none(v) for v in d]
     return d
-
-
-def file_sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 # ------------------------------------------------------------------- loading

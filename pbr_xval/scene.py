@@ -219,7 +219,7 @@ class Scene:
             when the rock does not rock on two edges ⟂ to the shaking (e.g. a box shaken
             along a diagonal, or a rock whose inertia couples in- and out-of-plane motion).
         """
-        from pbr_xval.engine import NotApplicable
+        from pbr_xval.errors import NotApplicable
         from pbr_xval.geometry.stability import hull_vertices, support_points
 
         d, e = self.direction, self.rocking_axis
@@ -344,8 +344,7 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
             }
         )
     elif isinstance(rock, sc.MeshRock):
-        from pbr_xval.geometry.interface import NotAtRestError
-        from pbr_xval.geometry.mesh import load_rock_mesh
+        from pbr_xval.geometry.interface import NotAtRestError, load_rock_mesh
 
         try:
             mesh, info = load_rock_mesh(

@@ -19,7 +19,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["QUANTITIES", "Quantity", "column", "label", "quantity", "unit"]
+__all__ = ["QUANTITIES", "UNIT_SCALE", "Quantity", "column", "label", "quantity", "unit"]
+
+#: length unit of an input file (mesh, scan, cut height) -> metres per unit
+UNIT_SCALE: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001, "km": 1000.0, "ft": 0.3048, "in": 0.0254}
 
 
 @dataclass(frozen=True)

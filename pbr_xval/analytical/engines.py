@@ -100,7 +100,7 @@ class HousnerEngine(EngineBase):
         }
 
     def versions(self) -> dict[str, str]:
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
 
@@ -250,7 +250,7 @@ class CurvedBaseEngine(EngineBase):
         }
 
     def versions(self) -> dict[str, str]:
-        from pbr_xval import __version__
+        from pbr_xval.version import __version__
 
         return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
 

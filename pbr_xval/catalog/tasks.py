@@ -278,13 +278,13 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Simulate every motion of the chunk; (rows, provenance). Never raises for one bad run."""
     import numpy as np
 
-    from pbr_xval import __version__
     from pbr_xval.diagnostics import ensure_standard_diagnostics
     from pbr_xval.engine import NotApplicable, machine_info
     from pbr_xval.motion import intensity_measures
     from pbr_xval.runner import effective_settings
     from pbr_xval.scenario import scenario_from_dict
     from pbr_xval.scene import compile_scene
+    from pbr_xval.version import __version__
 
     _limit_threads()
     h = spec.content_hash()

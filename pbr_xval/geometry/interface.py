@@ -39,6 +39,7 @@ __all__ = [
     "distance_to_mesh",
     "fit_plane",
     "frame_from_plane",
+    "load_rock_mesh",
     "pedestal_plane",
     "plot_stability_polar",
     "rest_pose",
@@ -449,3 +450,32 @@ def plot_stability_polar(table: StabilityTable, path: str | Path, g: float = 9.8
     _atomic_savefig(fig, Path(path), dpi=110)
     plt.close(fig)
     return Path(path)
+
+
+def load_rock_mesh(
+    path: str | Path, *, units: str = "m", pose: str = "settle", hint: str = "use pose = settle"
+) -> tuple[trimesh.Trimesh, dict[str, Any]]:
+    """Load a closed rock mesh ready for mass properties (positive volume, consistent winding),
+    put at rest in ``pose`` (``scan``, ``settle`` or ``stable``; see
+    :func:`pbr_xval.geometry.interface.rest_pose`), lowest point on z = 0.
+
+    Raises
+    ------
+    NotAtRestError
+        ``pose = "scan"`` and the rock is not at rest in its scan orientation (the message
+        names the file and ends with ``hint``).
+    """
+    from pbr_xval.geometry.io import close_and_orient
+    from pbr_xval.geometry.mesh import load_mesh
+
+    mesh, info = load_mesh(path, units=units)
+    # safe repairs without networkx (capping small planar holes, BFS winding fix, inversion)
+    close_and_orient(mesh, path, info["repairs"])
+    try:
+        tf, pinfo = rest_pose(mesh.vertices, mesh.center_mass, pose, hint=hint)
+    except NotAtRestError as exc:
+        raise NotAtRestError(f"{path}: {exc}") from None
+    mesh.apply_transform(tf)
+    info["pose_transform"] = np.asarray(tf).tolist()
+    info["pose"] = pinfo
+    return mesh, info

@@ -27,7 +27,8 @@ import numpy as np
 import trimesh
 
 from pbr_xval.geometry.mesh import MeshError, merge_and_clean
-from pbr_xval.scenario import UNIT_SCALE, file_sha256
+from pbr_xval.hashing import file_sha256
+from pbr_xval.units import UNIT_SCALE
 
 __all__ = [
     "CLOUD_FORMATS",

@@ -1,4 +1,8 @@
-"""Reading rock and pedestal meshes: units, re-centring in float64, safe repairs, clear refusals."""
+"""Reading rock and pedestal meshes: units, re-centring in float64, safe repairs, clear refusals.
+
+A rock mesh put at rest (closed, oriented, posed) is
+:func:`pbr_xval.geometry.interface.load_rock_mesh`, which builds on this module.
+"""
 
 from __future__ import annotations
 
@@ -8,9 +12,10 @@ from typing import Any
 import numpy as np
 import trimesh
 
-from pbr_xval.scenario import UNIT_SCALE, file_sha256
+from pbr_xval.hashing import file_sha256
+from pbr_xval.units import UNIT_SCALE
 
-__all__ = ["MeshError", "load_mesh", "load_rock_mesh"]
+__all__ = ["MeshError", "load_mesh"]
 
 MESH_FORMATS = {".obj", ".ply", ".stl", ".off"}
 
@@ -71,31 +76,3 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
     }
     return mesh, info
 
-
-def load_rock_mesh(
-    path: str | Path, *, units: str = "m", pose: str = "settle", hint: str = "use pose = settle"
-) -> tuple[trimesh.Trimesh, dict[str, Any]]:
-    """Load a closed rock mesh ready for mass properties (positive volume, consistent winding),
-    put at rest in ``pose`` (``scan``, ``settle`` or ``stable``; see
-    :func:`pbr_xval.geometry.interface.rest_pose`), lowest point on z = 0.
-
-    Raises
-    ------
-    NotAtRestError
-        ``pose = "scan"`` and the rock is not at rest in its scan orientation (the message
-        names the file and ends with ``hint``).
-    """
-    from pbr_xval.geometry.interface import NotAtRestError, rest_pose
-    from pbr_xval.geometry.io import close_and_orient
-
-    mesh, info = load_mesh(path, units=units)
-    # safe repairs without networkx (capping small planar holes, BFS winding fix, inversion)
-    close_and_orient(mesh, path, info["repairs"])
-    try:
-        tf, pinfo = rest_pose(mesh.vertices, mesh.center_mass, pose, hint=hint)
-    except NotAtRestError as exc:
-        raise NotAtRestError(f"{path}: {exc}") from None
-    mesh.apply_transform(tf)
-    info["pose_transform"] = np.asarray(tf).tolist()
-    info["pose"] = pinfo
-    return mesh, info

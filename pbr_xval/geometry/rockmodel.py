@@ -155,7 +155,7 @@ def build_rock_model(
         rock_geom = sc.mesh
     ped_pts = None
     if cut_z is not None:
-        from pbr_xval.scenario import UNIT_SCALE
+        from pbr_xval.units import UNIT_SCALE
 
         zc = cut_z * UNIT_SCALE[units] - sc.offset[2]
         rock_geom, ped_geom = split_by_plane(rock_geom, np.array([0.0, 0.0, zc]))

@@ -223,8 +223,8 @@ def _arrow_table(df: pd.DataFrame, meta: Mapping[str, Any]) -> Any:
 
 def base_provenance(extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """pbr-xval version, date (UTC), command line and machine, updated by ``extra``."""
-    from pbr_xval import __version__
     from pbr_xval.engine import machine_info
+    from pbr_xval.version import __version__
 
     prov: dict[str, Any] = {
         "pbr_xval_version": __version__,

@@ -413,7 +413,7 @@ def _round_for(tol: float, value: float) -> str:
 
 def rewrite_golden(golden: str | Path, measured: Sequence[RowResult]) -> Path:
     """Write ``measured`` thresholds into ``golden`` (atomically), keeping everything else."""
-    from pbr_xval.report.writer import atomic_write_text
+    from pbr_xval.atomic import write_text_atomic as atomic_write_text
 
     golden = Path(golden)
     rows, header = read_golden(golden)
