@@ -553,10 +553,11 @@ def solve_lcp(
     max_pivots: int | None = None,
     tol: float = 1e-12,
     fallback: bool = True,
-    reference: np.ndarray | None = None,
-    select: str | None = None,
 ) -> LCPResult:
     """Solve an LCP with one method and fall back to the other on failure.
+
+    A selection among non-unique solutions (``select=``) is
+    :func:`pbr_xval.reference.lcp.solve_lcp`, which builds on this one.
 
     Parameters
     ----------
@@ -573,12 +574,6 @@ def solve_lcp(
         Passed to the methods.
     fallback : bool
         Try the other method when the primary one does not return ``"ok"``.
-    reference : array_like, shape (n,), optional
-        Reference for ``select="closest"``.
-    select : {None, "closest", "min_norm"}
-        ``None`` returns whatever vertex the pivoting produced; ``"closest"`` /
-        ``"min_norm"`` post-process with :func:`solve_lcp_min_norm` (``min_norm`` uses
-        reference zero).
 
     Returns
     -------
@@ -589,15 +584,6 @@ def solve_lcp(
     if method not in _METHODS:
         raise ValueError(f"unknown method {method!r}; use 'dantzig' or 'lemke'")
     M, q = _as_problem(M, q)
-    if select is not None:
-        if select not in ("closest", "min_norm"):
-            raise ValueError(f"unknown select {select!r}")
-        from pbr_xval.reference.selection import solve_lcp_min_norm
-
-        ref = None if select == "min_norm" else reference
-        return solve_lcp_min_norm(
-            M, q, reference=ref, method=method, tol=tol, max_pivots=max_pivots, warm_start=warm_start
-        )
     kwargs: dict = {"max_pivots": max_pivots, "tol": tol}
     if method == "dantzig" and warm_start is not None:
         ws = np.asarray(warm_start, dtype=float).reshape(-1)
