@@ -57,8 +57,9 @@ This is the one place that lists them; each is also marked where it is implement
    ``iteration_tol`` or after ``iterations`` (non-converged steps are counted).
 8. **Contact nodes.** The contact set of a step is reduced to its support hull (exact: a node
    that is a convex combination of other contact nodes can carry no force that they cannot,
-   see :mod:`kernel`); the rock's other convex-hull vertices are added to the basal nodes
-   (``side_nodes``) so that a rock rotated far — lying on its side — still meets the pedestal.
+   see :mod:`kernel`); the rock's convex-hull vertices above its centre of mass are added to
+   the basal nodes (``side_nodes``) so that a rock rotated far — lying on its side — still
+   meets the pedestal (they cannot touch a flat pedestal before the rock tips past horizontal).
 9. **Rest hold.** After the excitation has ended, a rock whose speed and velocity change per
    step are below ``rest_velocity`` is held (exact for a rigid rock on a rigid pedestal).
 """

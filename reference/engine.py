@@ -38,8 +38,8 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
 
     ``nodes = "scene"``: the nodes the scene compiler chose from the scenario's
     ``[model] basal_nodes`` (default: the convex-hull vertices below the COM), recorded in the
-    scene's reductions; with ``side_nodes`` (default) the rock's other convex-hull vertices
-    are added so that a rock rotated far (lying on its side) still meets the pedestal.
+    scene's reductions; with ``side_nodes`` (default) the rock's convex-hull vertices above
+    its COM are added so that a rock rotated far (lying on its side) still meets the pedestal.
     ``nodes = "hull"``: the convex-hull vertices of the rock (a rigid rock on a flat pedestal
     can only touch it with hull vertices), the ``max_nodes`` lowest ones kept.
     ``nodes = "grid"``: the flat base (the hull vertices within 1e-9·size of the lowest point)
@@ -55,7 +55,7 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
     if kind == "scene":
         nodes = np.asarray(scene.basal_nodes, dtype=float)
         if settings.get("side_nodes", True):
-            nodes = _with_side_nodes(nodes, mesh)
+            nodes = _with_side_nodes(nodes, mesh, np.asarray(scene.rock.com, dtype=float))
         return nodes
     if kind == "vertices":
         pts = np.unique(np.asarray(mesh.vertices, dtype=float), axis=0)
@@ -80,29 +80,18 @@ def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
     return pts[order][:nmax]
 
 
-def _with_side_nodes(nodes: np.ndarray, mesh: Any) -> np.ndarray:
-    """``nodes`` (N, 3) plus the rock's convex-hull vertices that are not among them (m).
+def _with_side_nodes(nodes: np.ndarray, mesh: Any, com: np.ndarray) -> np.ndarray:
+    """``nodes`` (N, 3) plus the rock's convex-hull vertices above its centre of mass ``com``
+    (m; those below it are the candidates the scene compiler chose the basal nodes from).
 
-    The basal nodes carry the rocking; the other hull vertices only matter at large
-    rotations (a toppled rock lying on its side: a rigid rock on a flat pedestal touches it
-    with hull vertices only). Without them a rock rotated past 90° would pass through the
-    pedestal."""
-    from pbr_xval.geometry.stability import hull_vertices
+    The basal nodes carry the rocking; the hull vertices above the COM only meet a flat
+    pedestal after the rock has rotated past horizontal (a toppled rock lying on its side).
+    Without them such a rock would pass through the pedestal."""
+    from scipy.spatial import ConvexHull
 
-    hull = np.asarray(hull_vertices(np.asarray(mesh.vertices, dtype=float)), dtype=float)
-    if nodes.size == 0:
-        return hull
-    tol = 1e-9 * max(float(np.ptp(hull)), 1e-300)
-    d2 = (
-        ((hull[:, None, :] - nodes[None, :, :]) ** 2).sum(axis=2).min(axis=1)
-        if nodes.shape[0] * hull.shape[0] <= 4_000_000
-        else None
-    )
-    if d2 is None:
-        from scipy.spatial import cKDTree
-
-        d2 = cKDTree(nodes).query(hull)[0] ** 2
-    extra = hull[d2 > tol * tol]
+    v = np.asarray(mesh.vertices, dtype=float)
+    hull = v[ConvexHull(v).vertices]
+    extra = hull[hull[:, 2] > com[2]]
     return np.vstack([nodes, extra]) if extra.size else nodes
 
 
@@ -451,8 +440,9 @@ class ReferenceEngine(EngineBase):
 
     @staticmethod
     def _at_rest(stepper: Any, state: Any, size: float, dt: float, rest_v: float) -> bool:
-        w = stepper.omega(state)
-        speed = float(np.linalg.norm(state.v)) + float(np.linalg.norm(w)) * size
+        vx, vy, vz = state.v.tolist()
+        wx, wy, wz = (float(x) for x in stepper.last_omega)
+        speed = math.sqrt(vx * vx + vy * vy + vz * vz) + math.sqrt(wx * wx + wy * wy + wz * wz) * size
         if speed >= rest_v:
             return False
         dv = float(np.linalg.norm(stepper.last_force)) / stepper.body.mass * dt

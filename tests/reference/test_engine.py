@@ -295,3 +295,22 @@ def test_toppled_block_lands_on_its_side():
     assert d["max_penetration_m"] <= d["epsilon_m"]
     assert d["min_timestep_hits"] == 0
     assert d["lcp_failures"] == 0
+
+
+def test_side_nodes_are_the_hull_vertices_above_the_com():
+    """Side nodes add only hull vertices above the COM (they cannot touch a flat pedestal
+    before the rock tips past horizontal): the box gets its 4 top corners, the notched block
+    too — never the notch's inner corners, which the two-pivot model leaves out."""
+    from pbr_xval.reference.engine import basal_nodes
+
+    for scn in (conf.housner_scenario(), conf.notched_scenario()):
+        scene = compile_scene(scn)
+        com = np.asarray(scene.rock.com)
+        nodes = basal_nodes(scene, {"nodes": "scene", "max_nodes": 256})
+        base = np.asarray(scene.basal_nodes)
+        np.testing.assert_array_equal(nodes[: len(base)], base)
+        top = nodes[len(base) :]
+        assert len(top) == 4
+        np.testing.assert_allclose(top[:, 2], base[:, 2].min() + 1.2)  # the top face (1.2 m high)
+        assert np.all(top[:, 2] > com[2])
+        assert len(basal_nodes(scene, {"nodes": "scene", "max_nodes": 256, "side_nodes": False})) == len(base)
