@@ -412,8 +412,8 @@ class Stepper:
         prm[kernel.P_VSLIP] = self.v_slip
         prm[kernel.P_ORTH] = self.orth_tol
         prm[kernel.P_LREF] = self._lref
-        prm[kernel.P_PED_KIND] = 1.0 if pedestal.kind == "box" and pedestal.half_extents is not None else 0.0
-        if prm[kernel.P_PED_KIND]:
+        if pedestal.kind == "box" and pedestal.half_extents is not None:
+            prm[kernel.P_PED_KIND] = 1.0
             prm[kernel.P_HX], prm[kernel.P_HY] = pedestal.half_extents[0], pedestal.half_extents[1]
         prm[kernel.P_REDUCE] = 1.0 if self.reduce else 0.0
         self._prm = prm
@@ -552,12 +552,12 @@ class Stepper:
         if np.all(c.slide):
             # all contacts sliding: normal-only LCP with the non-symmetric A' (eq. 3.6 + μ_d)
             An = A[0::3, 0::3]
-            res = pivoting.solve_lcp(An, b[0::3], method=self.method)
-            self.stats.lcp_pivots += res.pivots
-            if not res.ok:
+            lres = pivoting.solve_lcp(An, b[0::3], method=self.method)
+            self.stats.lcp_pivots += lres.pivots
+            if not lres.ok:
                 self.stats.lcp_failures += 1
             f = np.zeros(3 * k)
-            f[0::3] = res.z
+            f[0::3] = lres.z
             return f
         mu = np.where(c.slide, 0.0, self.mu_s)
         warm = self._prev_force[c.idx].reshape(-1)
@@ -675,8 +675,8 @@ class Stepper:
         gm[:, 0, 3], gm[:, 0, 4] = ry, -rx
         gm[:, 1, 4], gm[:, 1, 5] = rz, -ry
         gm[:, 2, 3], gm[:, 2, 5] = -rz, rx
-        gm = gm.reshape(3 * k, 6)
-        return gm, gm
+        rows = gm.reshape(3 * k, 6)
+        return rows, rows
 
     def _inv_mass(self, R: np.ndarray) -> np.ndarray:
         """M⁻¹ = diag(I₃/m, I_world⁻¹) (6, 6)."""

@@ -19,12 +19,15 @@ from __future__ import annotations
 import functools
 import math
 import time
-from collections.abc import Mapping
-from typing import Any, ClassVar
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
 
@@ -33,7 +36,7 @@ __all__ = ["MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
 MAX_ACCEPT_EVENTS = 20
 
 
-def basal_nodes(scene: Any, settings: Mapping[str, Any]) -> np.ndarray:
+def basal_nodes(scene: Scene, settings: Mapping[str, Any]) -> np.ndarray:
     """Contact nodes (N, 3) of the rock, scene frame at rest (m).
 
     ``nodes = "scene"``: the nodes the scene compiler chose from the scenario's
@@ -100,7 +103,7 @@ def _step_starts(
 ) -> list[tuple[float, float]]:
     """(t0, Δt) of the next ``n`` steps from t without step-backs: the engine's own time
     arithmetic (steps of Δt ending on the excitation breakpoints), replayed."""
-    out = []
+    out: list[tuple[float, float]] = []
     bp_i = 0
     while len(out) < n and t < duration - 1e-12 * dt_nom:
         while bp_i < len(bps) and bps[bp_i] <= t + 1e-12 * dt_nom:
@@ -200,7 +203,7 @@ class ReferenceEngine(EngineBase):
         return {"pbr_xval": __version__, "numpy": np.__version__}
 
     # ------------------------------------------------------------------ simulate
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.engines._common import Recorder, initial_pose
         from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
 
@@ -241,11 +244,13 @@ class ReferenceEngine(EngineBase):
             def load_many(ts: np.ndarray) -> np.ndarray:
                 return gvec - np.asarray(exc.acceleration(ts), dtype=float).reshape(-1, 3)
 
-            load = _StepLoad(load_direct, load_many)
+            load: Callable[[float], np.ndarray] = _StepLoad(load_direct, load_many)
         else:
 
-            def load(t: float) -> np.ndarray:
+            def load_gravity(t: float) -> np.ndarray:
                 return gvec
+
+            load = load_gravity
 
             def kin(t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 return (
@@ -424,14 +429,16 @@ class ReferenceEngine(EngineBase):
         return traj
 
     @staticmethod
-    def _near_topple_guard(scene: Any) -> Any:
+    def _near_topple_guard(scene: Scene) -> Any:
         """f(com, R) -> True when the toppling criterion could be within reach (80 % of it)."""
         crit = scene.toppling
         com0 = np.asarray(scene.rock.com, dtype=float)
         if crit.criterion == "com_displacement":
+            assert crit.distance is not None  # the scenario validator requires it
             lim = 0.8 * float(crit.distance)
             return lambda com, rot: bool(np.hypot(com[0] - com0[0], com[1] - com0[1]) >= lim)
         if crit.criterion == "tilt_angle":
+            assert crit.angle_deg is not None  # the scenario validator requires it
             lim_tilt = 0.8 * math.radians(crit.angle_deg)
         else:
             lim_tilt = 0.8 * float(crit.factor) * float(np.min(scene.rock.stability.alpha))
