@@ -5,7 +5,9 @@ eqs. 3.1–3.4 integrated with the constant-average-acceleration method and dire
 Cayley projection of R, basal contact nodes within ±ε, step-back on deeper penetration,
 collision impulses from the LCP of eq. 3.5 and resting forces with Coulomb friction
 (eqs. 3.6–3.7, dynamic friction μ_d when sliding). The stepping lives in
-:mod:`pbr_xval.reference.dynamics`, the LCP solvers in :mod:`pbr_xval.reference.lcp`.
+:mod:`pbr_xval.reference.dynamics` (compiled: :mod:`pbr_xval.reference.kernel`), the LCP
+solvers in :mod:`pbr_xval.reference.lcp`; the deviations from the paper are listed in the
+package docstring (:mod:`pbr_xval.reference`), the cost in ``reference/PERFORMANCE.md``.
 
 Usage::
 
