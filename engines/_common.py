@@ -17,11 +17,14 @@ import tempfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pbr_xval.engine import Event, Trajectory
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["Recorder", "StderrCapture", "initial_pose", "matrices_to_quats", "matrix_to_quat", "n_steps"]
 
@@ -98,7 +101,7 @@ class Recorder:
     are converted to quaternions once, at the end.
     """
 
-    scene: Any
+    scene: Scene
     dt: float
     explode_factor: float = 50.0
     max_speed: float = 1e3
@@ -363,7 +366,7 @@ def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
 
 
-def initial_pose(scene: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Initial COM (3,), rotation (3, 3) relative to rest, COM velocity (3,) and ω (3,).
 
     With ``scene.theta0`` ≠ 0 the rock starts tilted by θ0 about the support edge toward
@@ -422,7 +425,7 @@ def write_obj(vertices: np.ndarray, faces: np.ndarray, tag: str) -> Path:
 
 
 def collision_parts(
-    scene: Any, choice: str, coacd_threshold: float | None = None, coacd_seed: int = 0
+    scene: Scene, choice: str, coacd_threshold: float | None = None, coacd_seed: int = 0
 ) -> tuple[str, list[tuple[np.ndarray, np.ndarray]]]:
     """Resolve an adapter's ``collision`` setting against the scene compiler's choice.
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -53,6 +53,9 @@ from pbr_xval.engines._common import (
     n_steps,
     write_obj,
 )
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["DartEngine"]
 
@@ -181,7 +184,7 @@ class DartEngine(EngineBase):
 
     # ------------------------------------------------------------------ model
     def _rock_shapes(
-        self, dart: Any, scene: Any, s: Mapping[str, Any]
+        self, dart: Any, scene: Scene, s: Mapping[str, Any]
     ) -> tuple[list[tuple[Any, Any, Any]], str]:
         """[(shape, rotation (3, 3), translation (3,)) in the body frame], model description."""
         D = dart.dynamics
@@ -210,7 +213,7 @@ class DartEngine(EngineBase):
         shapes = _load_mesh_shapes(dart, paths)
         return [(sh, np.eye(3), np.zeros(3)) for sh in shapes], desc
 
-    def _pedestal_shape(self, dart: Any, scene: Any, s: Mapping[str, Any]) -> tuple[Any, np.ndarray, str]:
+    def _pedestal_shape(self, dart: Any, scene: Scene, s: Mapping[str, Any]) -> tuple[Any, np.ndarray, str]:
         D = dart.dynamics
         ped = scene.pedestal
         if ped["kind"] == "plane":
@@ -226,7 +229,7 @@ class DartEngine(EngineBase):
         raise NotApplicable(f"dart: unknown pedestal kind {ped['kind']!r}")
 
     # ------------------------------------------------------------------ run
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         s = self.resolve_settings(settings)
         self._check(s)
         dart = _import_dart()

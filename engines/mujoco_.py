@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -43,6 +43,9 @@ from pbr_xval.engines._common import (
     initial_pose,
     n_steps,
 )
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["MuJoCoEngine"]
 
@@ -193,7 +196,7 @@ class MuJoCoEngine(EngineBase):
             raise EngineSettingsError(f"engine 'mujoco': condim must be 1, 3, 4 or 6, got {s['condim']!r}")
 
     # ------------------------------------------------------------------ model
-    def _build(self, mujoco: Any, scene: Any, s: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    def _build(self, mujoco: Any, scene: Scene, s: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
         dt = float(s["timestep"])
         rock = scene.rock
         moving = s["ground_motion"] == "moving_pedestal"
@@ -333,7 +336,7 @@ class MuJoCoEngine(EngineBase):
         return model, info
 
     # ------------------------------------------------------------------ simulate
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         s = self.resolve_settings(settings)
         self._check(s)
         mujoco = _import_mujoco()
@@ -366,7 +369,7 @@ class MuJoCoEngine(EngineBase):
         return rec.trajectory(self.name, s, versions, diag)
 
     def _run(
-        self, mujoco: Any, m: Any, d: Any, scene: Any, s: dict[str, Any], rec: Recorder, info: dict[str, Any]
+        self, mujoco: Any, m: Any, d: Any, scene: Scene, s: dict[str, Any], rec: Recorder, info: dict[str, Any]
     ) -> dict[str, Any]:
         dt = float(m.opt.timestep)
         moving = info["moving"]

@@ -20,7 +20,7 @@ Measured behaviour and pitfalls: ``/work/shared/notes/engines_pybullet_mujoco.md
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -44,6 +44,9 @@ from ._common import (
     n_steps,
     write_obj,
 )
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["PyBulletEngine"]
 
@@ -199,7 +202,7 @@ class PyBulletEngine(EngineBase):
 
     # --------------------------------------------------------------- building
     def _rock_shape(
-        self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], rot0: np.ndarray
+        self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], rot0: np.ndarray
     ) -> tuple[int, dict]:
         """Collision shape of the rock in the body frame (origin at the COM, axes ``rot0``)."""
         rock = scene.rock
@@ -252,7 +255,7 @@ class PyBulletEngine(EngineBase):
         return sid, {"collision": choice, "n_parts": n}
 
     def _pedestal(
-        self, p: Any, cid: int, scene: Any, s: Mapping[str, Any], moving: bool, axes: int
+        self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], moving: bool, axes: int
     ) -> tuple[int, int]:
         """Pedestal body and the link index that carries its collision shape (−1: the base)."""
         ped = scene.pedestal
@@ -306,7 +309,7 @@ class PyBulletEngine(EngineBase):
         return body, axes - 1
 
     # --------------------------------------------------------------- simulate
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         p = _import_pybullet()
         s = self.resolve_settings(settings)
         self._check(s)
@@ -316,7 +319,7 @@ class PyBulletEngine(EngineBase):
         finally:
             p.disconnect(physicsClientId=cid)
 
-    def _run(self, p: Any, cid: int, scene: Any, s: dict[str, Any]) -> Trajectory:
+    def _run(self, p: Any, cid: int, scene: Scene, s: dict[str, Any]) -> Trajectory:
         dt = float(s["timestep"])
         g = float(scene.gravity)
         moving = s["ground_motion"] == "moving_pedestal"

@@ -20,7 +20,6 @@ import importlib
 import importlib.metadata
 import importlib.util
 import json
-import math
 import os
 import platform
 from collections.abc import Mapping
@@ -31,6 +30,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol, runtime_checkable
 import numpy as np
 
 from pbr_xval.errors import EngineNotAvailable, EngineSettingsError, NotApplicable
+from pbr_xval.jsonio import jsonable as _jsonable
 from pbr_xval.registry import ENTRY_POINT_GROUP, refresh_engines, registered_names
 from pbr_xval.registry import entry_points as _entry_points
 
@@ -111,20 +111,6 @@ class Event:
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "t": float(self.t), **{k: _jsonable(v) for k, v in self.data.items()}}
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    if isinstance(v, Mapping):
-        return {str(k): _jsonable(x) for k, x in v.items()}
-    if isinstance(v, list | tuple):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, float) and not math.isfinite(v):
-        return repr(v)
-    return v
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:

@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import tomllib
 import types
 import typing
 from pathlib import Path
@@ -45,6 +44,7 @@ from pydantic import (
 
 from pbr_xval.errors import ScenarioError
 from pbr_xval.hashing import file_sha256
+from pbr_xval.tomlio import read_toml, validation_lines
 from pbr_xval.units import UNIT_SCALE
 
 __all__ = [
@@ -536,7 +536,7 @@ class Scenario(Strict):
             out["rock.path"] = self.resolve_path(self.rock.path)
         if isinstance(self.pedestal, MeshPedestal):
             out["pedestal.path"] = self.resolve_path(self.pedestal.path)
-        if getattr(self.excitation, "type", None) == "record":
+        if isinstance(self.excitation, RecordMotion):
             out["excitation.path"] = self.resolve_path(self.excitation.path)
             if self.excitation.second is not None:
                 out["excitation.second.path"] = self.resolve_path(self.excitation.second.path)
@@ -676,26 +676,13 @@ def _tag_of(cls: type[BaseModel]) -> str | None:
 
 
 def _format_errors(exc: ValidationError, source: Path | None) -> str:
+    def known(loc: tuple[Any, ...]) -> list[str]:
+        owner = _model_at(loc)
+        return sorted(owner.model_fields) if owner else []
+
     where = str(source) if source else "<scenario>"
-    lines = []
-    for err in exc.errors():
-        loc = tuple(err["loc"])
-        key = ".".join(_strip_tags(loc))  # discriminator tags are not keys
-        found = err.get("input")
-        if err["type"] == "extra_forbidden":
-            owner = _model_at(loc)
-            expected = sorted(owner.model_fields) if owner else []
-            msg = f"unknown key; expected one of: {', '.join(expected)}" if expected else "unknown key"
-        elif err["type"] == "missing":
-            msg = "missing required key"
-            found = None
-        else:
-            msg = err["msg"].removeprefix("Value error, ")
-        text = f"{where}: key '{key}': {msg}"
-        if found is not None and not isinstance(found, dict):
-            text += f" (found {found!r})"
-        lines.append(text)
-    return "\n".join(lines)
+    # discriminator tags are not keys
+    return "\n".join(validation_lines(exc, where, loc=_strip_tags, known_keys=known))
 
 
 def _strip_tags(loc: tuple[Any, ...]) -> list[str]:
@@ -740,20 +727,9 @@ def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
         naming the file, the key, what was found and what was expected.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read scenario file ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise ScenarioError(
-            f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a scenario TOML file"
-        ) from None
-    if not text.strip():
-        raise ScenarioError(f"{path}: empty file; expected a scenario TOML (name, duration, [rock], [excitation])")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    data = read_toml(
+        path, what="scenario", expected="name, duration, [rock], [excitation]", error=ScenarioError
+    )
     scn = scenario_from_dict(data, source=path)
     if check_files:
         for key, f in scn.referenced_files().items():

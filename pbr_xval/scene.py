@@ -103,14 +103,15 @@ class _Delayed(GroundMotion):
         self.base, self.delay = base, float(delay)
         self.name = base.name
 
+    # (n,) in, (n,) out: the kernels of the base motion, shifted
     def _acceleration(self, t: np.ndarray) -> np.ndarray:
-        return self.base.acceleration(t - self.delay)
+        return self.base._acceleration(t - self.delay)
 
     def _velocity(self, t: np.ndarray) -> np.ndarray:
-        return self.base.velocity(t - self.delay)
+        return self.base._velocity(t - self.delay)
 
     def _displacement(self, t: np.ndarray) -> np.ndarray:
-        return self.base.displacement(t - self.delay)
+        return self.base._displacement(t - self.delay)
 
     @property
     def duration(self) -> float:

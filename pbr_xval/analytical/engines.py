@@ -21,11 +21,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, Event, NotApplicable, Trajectory, axis_angle_quat
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["CurvedBaseEngine", "HousnerEngine"]
 
@@ -63,7 +66,7 @@ def _impact_ratio(settings: Mapping[str, Any]) -> float | None:
     return val
 
 
-def _drive(scene: Any) -> tuple[Any, Any, tuple[float, ...]]:
+def _drive(scene: Scene) -> tuple[Any, Any, tuple[float, ...]]:
     exc = scene.excitation
     h = exc.horizontal
     v = exc.vertical
@@ -104,7 +107,7 @@ class HousnerEngine(EngineBase):
 
         return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
 
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.analytical.closed_form import housner1963_halfsine
         from pbr_xval.analytical.rocking import TwoPivotBody, simulate_rocking
         from pbr_xval.motion.pulses import HalfSine
@@ -206,7 +209,7 @@ class HousnerEngine(EngineBase):
         )
 
     @staticmethod
-    def _kinematics(scene: Any, body: Any, theta: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, ...]:
+    def _kinematics(scene: Scene, body: Any, theta: np.ndarray, omega: np.ndarray) -> tuple[np.ndarray, ...]:
         d, e, ez = scene.direction, scene.rocking_axis, np.array([0.0, 0.0, 1.0])
         g0 = scene.rock.com
         right = theta >= 0
@@ -254,7 +257,7 @@ class CurvedBaseEngine(EngineBase):
 
         return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
 
-    def simulate(self, scene: Any, settings: Mapping[str, Any] | None = None) -> Trajectory:
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.analytical.curved_base import CurvedBaseLamina, simulate_curved_base
         from pbr_xval.scenario import CurvedBaseRock
 

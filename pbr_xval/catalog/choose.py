@@ -75,7 +75,7 @@ def _candidates(cat: Catalog) -> list[tuple[str, str | None, dict[str, Any]]]:
     from pbr_xval.catalog.tasks import worker_engine
 
     c = cat.choose
-    out = []
+    out: list[tuple[str, str | None, dict[str, Any]]] = []
     for name in c.engines or cat.engines:
         try:
             eng = worker_engine(name)

@@ -42,13 +42,14 @@ import csv
 import itertools
 import math
 import re
-import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 
-from pbr_xval.scenario import UNIT_SCALE, file_sha256
+from pbr_xval.hashing import file_sha256
+from pbr_xval.tomlio import error_parts, key_line, read_toml, resolve_path, validation_lines
+from pbr_xval.units import UNIT_SCALE
 
 __all__ = ["Catalog", "CatalogError", "catalog_from_dict", "load_catalog"]
 
@@ -151,30 +152,17 @@ _TOP_KEYS = {
 
 
 # ---------------------------------------------------------------- helpers
-def _fmt(where: str, key: str, msg: str, found: Any = None, expected: str | None = None) -> str:
-    text = f"{where}: key '{key}': {msg}"
-    if found is not None:
-        text += f" (found {found!r})"
-    if expected:
-        text += f"; expected {expected}"
-    return text
+_fmt = key_line
+
+
+def _untagged(loc: tuple[Any, ...]) -> list[str]:
+    """Key components of a pydantic location without union tags (e.g. "box", "function-after[...]")."""
+    parts = [str(p) for p in loc]
+    return [p for p in parts if not p.startswith("function-") and p not in SHAPES and p not in PULSE_TYPES]
 
 
 def _first_error(exc: ValidationError, prefix: str = "") -> tuple[str, str, Any]:
-    err = exc.errors()[0]
-    loc = [str(p) for p in err["loc"]]
-    # drop pydantic's union-tag components (e.g. "box", "function-after[...]")
-    loc = [p for p in loc if not p.startswith("function-") and p not in SHAPES and p not in PULSE_TYPES]
-    key = ".".join([prefix, *loc] if prefix else loc) or prefix or "?"
-    found = err.get("input")
-    if isinstance(found, dict):
-        found = None
-    msg = err["msg"]
-    if err["type"] == "missing":
-        msg, found = "missing required key", None
-    elif err["type"] == "extra_forbidden":
-        msg = "unknown key"
-    return key, msg, found
+    return error_parts(exc.errors()[0], prefix=prefix, loc=_untagged)
 
 
 def _num(v: Any, key: str) -> float:
@@ -330,9 +318,7 @@ class _Synthetic(_Strict):
     target_alpha_deg: float | None = Field(None, gt=0, lt=60)
 
 
-def _resolve(p: str, base: Path) -> Path:
-    q = Path(p).expanduser()
-    return (q if q.is_absolute() else base / q).resolve()
+_resolve = resolve_path
 
 
 def _csv_value(key: str, text: str) -> Any:
@@ -536,26 +522,15 @@ def load_catalog(path: str | Path) -> Catalog:
         one line per bad entry; nothing is run until the whole catalog is valid.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise CatalogError([f"{path}: cannot read catalog file ({exc.strerror})"]) from None
-    except UnicodeDecodeError as exc:
-        raise CatalogError(
-            [f"{path}: not a text file (byte {exc.start} is not UTF-8); expected a catalog TOML file"]
-        ) from None
-    if not text.strip():
-        raise CatalogError([f"{path}: empty file; expected a catalog TOML ([[rock]] tables and [motions])"])
-    if path.suffix.lower() == ".csv":  # a bare rock list: no motions
+    if path.suffix.lower() == ".csv" and path.is_file():  # a bare rock list: no motions
         raise CatalogError(
             [
                 f"{path}: a CSV file is a rock list; reference it from a catalog TOML as rocks_csv = '{path.name}'"
             ]
         )
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise CatalogError([f"{path}: not valid TOML: {exc}"]) from None
+    data = read_toml(
+        path, what="catalog", expected="[[rock]] tables and [motions]", error=lambda m: CatalogError([m])
+    )
     return catalog_from_dict(data, source=path)
 
 
@@ -677,11 +652,7 @@ def catalog_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Ca
     try:
         _Top.model_validate(top)
     except ValidationError as exc:
-        for err in exc.errors():
-            key = ".".join(str(p) for p in err["loc"])
-            errors.append(
-                _fmt(where, key, err["msg"], err.get("input") if err["type"] != "missing" else None)
-            )
+        errors += validation_lines(exc, where)
     else:
         errors += _engine_errors(top, motions, where)
     if errors:

@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pbr_xval.jsonio import jsonable
+
 __all__ = ["ROW_COLUMNS", "ChunkSpec", "build_chunks", "execute_chunk", "run_chunk", "shard_chunks"]
 
 #: columns of one simulation row (the store's schema)
@@ -187,20 +189,9 @@ _MESH_CACHE: dict[str, str] = {}
 
 def synthetic_mesh_file(rock: dict[str, Any]) -> str:
     """Write (once per process / machine) the synthetic rock's mesh; deterministic bytes."""
-    from pbr_xval.geometry.synthetic import synthetic_rock
+    from pbr_xval.geometry.synthetic import SYNTHETIC_ROCK_KEYS, synthetic_rock
 
-    params = {
-        k: rock[k]
-        for k in (
-            "seed",
-            "radii",
-            "roughness",
-            "base_fraction",
-            "unevenness",
-            "subdivisions",
-            "target_alpha_deg",
-        )
-    }
+    params = {k: rock[k] for k in SYNTHETIC_ROCK_KEYS}
     key = hashlib.sha256(_canon(params).encode()).hexdigest()[:24]
     if key in _MESH_CACHE and Path(_MESH_CACHE[key]).is_file():
         return _MESH_CACHE[key]
@@ -341,17 +332,13 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     prov = {
         "engine": spec.engine,
         "engine_versions": versions,
-        "settings": _jsonable(used_settings or {}),
+        "settings": jsonable(used_settings or {}, default=str),
         "pbr_xval_version": __version__,
         "machine": machine_info(),
         "chunk_seed_entropy": str(spec.seed_sequence().entropy),
         "chunk_seed_spawn_key": list(spec.seed_sequence().spawn_key),
     }
     return rows, prov
-
-
-def _jsonable(v: Any) -> Any:
-    return json.loads(json.dumps(v, default=lambda x: x.tolist() if hasattr(x, "tolist") else str(x)))
 
 
 def _peak_rss_mb() -> float:

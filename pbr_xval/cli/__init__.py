@@ -5,8 +5,6 @@ Every command imports what it needs inside its body, so ``pbr-xval --help`` load
 
 from __future__ import annotations
 
-import sys
-
 # Importing a command group registers its commands; this order is the order of `pbr-xval --help`.
 from pbr_xval.cli import simulate  # noqa: F401  # isort: skip
 from pbr_xval.cli import rock, report, catalog  # noqa: F401  # isort: skip
@@ -22,4 +20,4 @@ def main() -> None:  # pragma: no cover
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    main()

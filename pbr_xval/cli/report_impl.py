@@ -364,10 +364,10 @@ def regress_command(
             con.print(
                 f"  [{colours[r['status']]}]{r['status']}[/] {escape(r['row'])}: {escape(r['message'])}"
             )
-    c = res.counts
+    counts = res.counts
     con.print(
-        f"{c['PASS']} passed, {c['FAIL']} failed, {c['ERROR']} errors, {c['SKIP']} skipped"
-        + (" (strict: skipped engines fail)" if strict and c["SKIP"] else "")
+        f"{counts['PASS']} passed, {counts['FAIL']} failed, {counts['ERROR']} errors, {counts['SKIP']} skipped"
+        + (" (strict: skipped engines fail)" if strict and counts["SKIP"] else "")
     )
     if markdown is not None:
         with open(markdown, "a", encoding="utf-8") as f:
@@ -379,7 +379,7 @@ def regress_command(
             "Review with `git diff` and commit."
         )
         # after an update the table holds the measured values: only errors fail
-        return 1 if (c["ERROR"] or (strict and c["SKIP"])) else 0
+        return 1 if (counts["ERROR"] or (strict and counts["SKIP"])) else 0
     return res.exit_code
 
 

@@ -25,7 +25,18 @@ import trimesh
 
 from pbr_xval.geometry.stability import hull_vertices, support_lever
 
-__all__ = ["simulate_scan", "synthetic_rock", "write_point_cloud"]
+__all__ = ["SYNTHETIC_ROCK_KEYS", "simulate_scan", "synthetic_rock", "write_point_cloud"]
+
+#: the shape parameters of :func:`synthetic_rock` (study files and catalogs pass them through)
+SYNTHETIC_ROCK_KEYS = (
+    "seed",
+    "radii",
+    "roughness",
+    "base_fraction",
+    "unevenness",
+    "subdivisions",
+    "target_alpha_deg",
+)
 
 _MONOMIALS = [(i, j, k) for i, j, k in product(range(4), repeat=3) if 1 <= i + j + k <= 3]
 

@@ -89,15 +89,17 @@ def write_example(out: str | Path) -> Path:
     for rid, th_g, beta, *_ in ROCKS:
         x, t = _stripes(th_g * G, beta, rng)
         stripes += [f"{rid},{xi:.6g},{int(ti)}" for xi, ti in zip(x, t, strict=True)]
-        f = fit_lognormal(x, t, "PGA", ci_level=0.95)
-        if f.status != "ok":  # pragma: no cover - the seed is fixed
-            raise RuntimeError(f"synthetic stripes of {rid}: {f.status} ({f.message})")
+        fit = fit_lognormal(x, t, "PGA", ci_level=0.95)
+        if fit.status != "ok":  # pragma: no cover - the seed is fixed
+            raise RuntimeError(f"synthetic stripes of {rid}: {fit.status} ({fit.message})")
         frags.append(
-            LognormalFragility("PGA", rid, theta=f.theta, beta=f.beta, theta_ci=f.theta_ci, beta_ci=f.beta_ci)
+            LognormalFragility(
+                "PGA", rid, theta=fit.theta, beta=fit.beta, theta_ci=fit.theta_ci, beta_ci=fit.beta_ci
+            )
         )
-        rows.append({"id": rid, "im": "PGA", "theta": f.theta, "beta": f.beta, "theta_lo": f.theta_ci[0],
-                     "theta_hi": f.theta_ci[1], "beta_lo": f.beta_ci[0], "beta_hi": f.beta_ci[1], "ci_level": 0.95,
-                     "n_runs": f.n_runs, "n_toppled": f.n_toppled, "status": "ok",
+        rows.append({"id": rid, "im": "PGA", "theta": fit.theta, "beta": fit.beta, "theta_lo": fit.theta_ci[0],
+                     "theta_hi": fit.theta_ci[1], "beta_lo": fit.beta_ci[0], "beta_hi": fit.beta_ci[1], "ci_level": 0.95,
+                     "n_runs": fit.n_runs, "n_toppled": fit.n_toppled, "status": "ok",
                      "source": f"synthetic stripes, true θ = {th_g * G:.4g} m/s², β = {beta}"})  # fmt: skip
     (d / "fragility").mkdir(exist_ok=True)
     write_text_atomic(d / "fragility" / "stripes.csv", "\n".join(stripes) + "\n")

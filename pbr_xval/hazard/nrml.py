@@ -40,6 +40,7 @@ import csv
 import math
 import re
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -69,7 +70,7 @@ def _g(v: float) -> str:
 
 def write_fragility_model(
     path: str | Path,
-    fragilities: list[Fragility],
+    fragilities: Sequence[Fragility],
     fmt: str = "continuous",
     model_id: str = "pbr_xval",
     description: str = "Precariously balanced rock toppling fragility (pbr-xval)",

@@ -162,7 +162,7 @@ class GroundMotion(ABC):
         if not (np.isfinite(t_end) and t_end >= 0):
             raise ValueError(f"t_end must be a finite time >= 0 s, got {t_end!r}")
         n = int(np.floor(t_end / dt * (1.0 + 1e-12))) + 1
-        t = np.arange(n) * float(dt)
+        t = np.arange(n, dtype=np.float64) * float(dt)
         return t, self._acceleration(t)
 
     def scaled(self, factor: float) -> GroundMotion:
@@ -183,6 +183,9 @@ class ScaledMotion(GroundMotion):
     factor : float
         Dimensionless, finite (may be negative to flip polarity).
     """
+
+    base: GroundMotion
+    factor: float
 
     def __init__(self, base: GroundMotion, factor: float) -> None:
         factor = float(factor)

@@ -6,11 +6,14 @@ plus the data drawn, as a pandas DataFrame, so the report can link it under the 
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pbr_xval.report.style import axis_label, engine_colour, log_ticks, subplots
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = ["fragility_curves", "ground_motion_table", "plot_ground_motion", "rock_figure"]
 
@@ -39,7 +42,7 @@ def _hull2d(p: np.ndarray) -> np.ndarray:
     return np.vstack([hull, hull[:1]])
 
 
-def rock_figure(scene: Any, title: str = "") -> tuple[Any, Any]:
+def rock_figure(scene: Scene, title: str = "") -> tuple[Any, Any]:
     """Side view (x–z) and plan view (x–y) of the rock at rest, contact patch and COM; equal axes.
 
     The contact patch is the set of vertices within 0.5 % of the rock's height of its lowest point
@@ -96,7 +99,7 @@ def rock_figure(scene: Any, title: str = "") -> tuple[Any, Any]:
     return fig, data
 
 
-def ground_motion_table(scene: Any, t_end: float | None = None, n: int = 1200) -> Any:
+def ground_motion_table(scene: Scene, t_end: float | None = None, n: int = 1200) -> Any:
     """Ground acceleration, velocity, displacement along the shaking direction: columns t, a_m_s2, v_m_s, d_m."""
     import pandas as pd
 

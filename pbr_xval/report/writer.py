@@ -42,6 +42,7 @@ from pbr_xval.atomic import (
     write_parquet_atomic,
     write_text_atomic,
 )
+from pbr_xval.jsonio import jsonable as _jsonable
 from pbr_xval.study.base import StudyResult
 
 if TYPE_CHECKING:
@@ -71,26 +72,6 @@ def _atomic_parquet(path: Path, table: Any) -> Path:
 def _slug(s: str) -> str:
     s = re.sub(r"[^A-Za-z0-9_.-]+", "_", s.strip()).strip("_.")
     return s or "x"
-
-
-def _jsonable(v: Any) -> Any:
-    from pbr_xval.engine import _jsonable as j
-
-    try:
-        import pandas as pd
-
-        if isinstance(v, pd.DataFrame):
-            return f"<table {v.shape[0]}×{v.shape[1]}>"
-    except ImportError:  # pragma: no cover
-        pass
-    if isinstance(v, Path):
-        return str(v)
-    out = j(v)
-    if isinstance(out, dict):
-        return {str(k): _jsonable(x) for k, x in out.items()}
-    if isinstance(out, list):
-        return [_jsonable(x) for x in out]
-    return out
 
 
 def _dumps(v: Any) -> str:

@@ -17,7 +17,6 @@ the cells in a process pool (spawn context).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from collections.abc import Callable, Sequence
@@ -486,7 +485,3 @@ def _figure(
             + "; hatched: toppled; red outline: the engine disagrees with the reference on toppling."
         ),
     )
-
-
-def _jsonable(d: Any) -> str:
-    return json.dumps(d, sort_keys=True, default=str)

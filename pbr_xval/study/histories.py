@@ -28,7 +28,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -37,6 +37,9 @@ from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
 
 __all__ = [
     "HistoriesConfig",
@@ -123,7 +126,7 @@ def impact_times(t: np.ndarray, theta: np.ndarray, tol: float, n: int | None = N
 
 
 def energy_drift(
-    traj: Trajectory, scene: Any, impacts: np.ndarray, *, margin: int = 3, min_energy: float = 0.01
+    traj: Trajectory, scene: Scene, impacts: np.ndarray, *, margin: int = 3, min_energy: float = 0.01
 ) -> float:
     """Largest relative change of the rock's energy between impacts (see the module docstring).
 
@@ -199,7 +202,7 @@ def toppling_values(cfg: HistoriesConfig, scenario: Scenario) -> tuple[dict[str,
     return None
 
 
-def _simulate(scene: Any, name: str, settings: dict[str, Any] | None) -> tuple[Trajectory | None, str, str]:
+def _simulate(scene: Scene, name: str, settings: dict[str, Any] | None) -> tuple[Trajectory | None, str, str]:
     """(trajectory, status, message); status is ok | failed | skipped."""
     from pbr_xval.runner import run_scene
 
@@ -377,7 +380,7 @@ def run(
         for i in range(N_IMPACTS):
             row[f"rebound{i + 1}"] = float(q["ratios"][i]) if q["ratios"].size > i else float("nan")
         row["energy_drift_rel"] = q["drift"]
-        if ref_q:
+        if ref_q and ref is not None:
             row["peak_rel_error"] = q["peak"] / ref_q["peak"] - 1.0 if ref_q["peak"] > 0 else float("nan")
             t_end = float(ref_q["impacts"][0]) if ref_q["impacts"].size else float(ref.t[-1])
             sel = traj.t <= t_end
@@ -466,11 +469,11 @@ def run(
             line += ("; " if len(tops) else "") + f"{', '.join(stands['engine'])} stand"
         summary.insert(1, line + ".")
     headline = {}
-    for r in rows:
-        if "peak_rel_error" in r:
-            headline[r["engine"]] = {
-                "peak_rel_error": _json_num(r["peak_rel_error"]),
-                "rms_theta_err_to_impact1_rad": _json_num(r["rms_theta_err_to_impact1_rad"]),
+    for row in rows:
+        if "peak_rel_error" in row:
+            headline[row["engine"]] = {
+                "peak_rel_error": _json_num(row["peak_rel_error"]),
+                "rms_theta_err_to_impact1_rad": _json_num(row["rms_theta_err_to_impact1_rad"]),
             }
     return StudyResult(
         kind="histories",
@@ -493,8 +496,8 @@ def run(
             "config": config.model_dump(mode="json"),
             "reference_engine": ref_used,
             "alpha_rad": list(alpha),
-            "settings": {n: runs[n][0].settings for n in shown if runs[n][0] is not None},
-            "versions": {n: runs[n][0].versions for n in shown if runs[n][0] is not None},
+            "settings": {n: tr.settings for n in shown if (tr := runs[n][0]) is not None},
+            "versions": {n: tr.versions for n in shown if (tr := runs[n][0]) is not None},
         },
         notes=notes,
         wall_time=time.perf_counter() - t_start,

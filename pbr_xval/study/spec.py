@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import importlib
 import time
-import tomllib
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -52,8 +51,11 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from pbr_xval.geometry.synthetic import SYNTHETIC_ROCK_KEYS
+from pbr_xval.jsonio import jsonable
 from pbr_xval.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
 from pbr_xval.study.base import StudyResult
+from pbr_xval.tomlio import read_toml, validation_lines
 
 __all__ = [
     "STUDY_MODULES",
@@ -79,16 +81,7 @@ STUDY_MODULES: dict[str, str] = {
 #: keys of a ``[[study]]`` table consumed by the runner, not by the study's Config
 RUNNER_KEYS = ("scenario", "scenarios", "engines", "title", "quick")
 
-SYNTHETIC_KEYS = {
-    "seed",
-    "radii",
-    "roughness",
-    "base_fraction",
-    "unevenness",
-    "subdivisions",
-    "target_alpha_deg",
-    "density",
-}
+SYNTHETIC_KEYS = {*SYNTHETIC_ROCK_KEYS, "density"}
 
 
 class StudyFileError(ValueError):
@@ -196,20 +189,7 @@ def _study_run(kind: str) -> Callable[..., StudyResult]:
 
 
 def _format_validation(exc: ValidationError, source: Path | None, prefix: str) -> str:
-    lines = []
-    for e in exc.errors():
-        key = ".".join([prefix, *[str(p) for p in e["loc"]]])
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key"
-        elif e["type"] == "missing":
-            msg = "missing required key"
-        else:
-            msg = e["msg"]
-        text = f"{_where(source)}: key '{key}': {msg}"
-        if e["type"] not in ("missing",) and not isinstance(e.get("input"), dict):
-            text += f" (found {e.get('input')!r})"
-        lines.append(text)
-    return "\n".join(lines)
+    return "\n".join(validation_lines(exc, _where(source), prefix=prefix))
 
 
 def _available_engines() -> tuple[list[str], list[str]]:
@@ -328,12 +308,9 @@ def load_study_spec(path: str | Path, *, quick: bool = False) -> StudySpec:
         naming the file and the key.
     """
     source = Path(path)
-    try:
-        data = tomllib.loads(source.read_text())
-    except OSError as exc:
-        raise StudyFileError(f"{source}: cannot read study file ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyFileError(f"{source}: not valid TOML: {exc}") from None
+    data = read_toml(
+        source, what="study", expected="name, [[scenario]] and [[study]] tables", error=StudyFileError
+    )
     return study_spec_from_dict(data, source=source, quick=quick)
 
 
@@ -618,7 +595,7 @@ def run_study(
                 res.title = f"{res.title} — {se.label}"
             res.notes = [*notes, *res.notes]
             res.provenance.setdefault("study_type", st.type)
-            res.provenance.setdefault("study_options", _jsonable(st.options))
+            res.provenance.setdefault("study_options", jsonable(st.options))
             res.provenance.setdefault("scenario_label", se.label)
             res.provenance.setdefault("scenario_hash", scn.content_hash())
             res.provenance.setdefault("scenario_name", scn.name)
@@ -655,9 +632,3 @@ def _default_title(kind: str) -> str:
         "extremes": "Stability at the extremes",
         "azimuth": "Toppling level per shaking azimuth",
     }.get(kind, kind)
-
-
-def _jsonable(v: Any) -> Any:
-    from pbr_xval.engine import _jsonable as j
-
-    return j(v)

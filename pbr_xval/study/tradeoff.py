@@ -184,7 +184,7 @@ def threshold_point(
         all_transitions=False,
     )
     below = bool(res.grid_toppled.size and res.grid_toppled[0])
-    from pbr_xval.engine import _jsonable
+    from pbr_xval.jsonio import jsonable as _jsonable
 
     return {
         "minimum": res.minimum,

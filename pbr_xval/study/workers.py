@@ -218,7 +218,7 @@ def simulate_batch(
             scene = compile_scene(scn)
             traj = run_scene(scene, eng, run.get("settings") or {})
             res = trajectory_summary(traj, scene)
-            from pbr_xval.engine import _jsonable
+            from pbr_xval.jsonio import jsonable as _jsonable
 
             res.update(
                 diagnostics=_jsonable(dict(traj.diagnostics)),
