@@ -85,7 +85,8 @@ def validate_command(
     out = out or Path("reports") / f"validate_{scn.name}"
     console.print(
         f"campaign {escape(str(campaign))}: {len(camp)} tests of specimen {specimen} "
-        f"({sum(t.toppled for t in camp.tests)} toppled), {camp.tests and len({t.motion for t in camp.tests})} records"
+        f"({sum(t.toppled for t in camp.tests)} toppled), {len({t.motion for t in camp.tests})} records",
+        soft_wrap=True,
     )
     t0 = time.perf_counter()
     try:
@@ -118,7 +119,8 @@ def validate_command(
     for r in sc.itertuples():
         console.print(
             f"{r.model:>18s}  F1 {r.f1:.3f}  acc {r.accuracy:.3f}  prec {r.precision:.3f}  rec {r.recall:.3f}"
-            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  [{r.evaluated_on}]"
+            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  [{r.evaluated_on}]",
+            soft_wrap=True,
         )
     for line in f1_lines(res):
         print(line, flush=True)

@@ -17,6 +17,9 @@ Usage (from the repository root)::
     python -m pbr_xval.validation.calibrate ../shared/data/shake_table --specimen 1 \\
         --scenario examples/validation/sp1.toml --engine mujoco --out runs/calibrate_sp1 \\
         --grid excitation.azimuth_deg=335,0,30 --stride 3
+
+A second stage varies other keys one at a time around the chosen base (``--one-at-a-time``,
+e.g. ``--grid contact.friction_static=0.4 --grid contact.restitution=0.3``).
 """
 
 from __future__ import annotations
@@ -119,6 +122,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--grid", action="append", default=[], help="key=v1,v2,... (repeatable; cartesian product)"
     )
+    ap.add_argument(
+        "--one-at-a-time",
+        action="store_true",
+        help="variants: the base and each grid value alone (no product)",
+    )
     ap.add_argument("--stride", type=int, default=3, help="screening tests: every N-th test")
     ap.add_argument("--folds", type=int, default=4)
     ap.add_argument("--workers", type=int, default=2)
@@ -131,7 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     grid: list[dict[str, Any]] = [{}]
     for g in a.grid:
         key, _, vals = g.partition("=")
-        grid = [{**p, key: json.loads(v)} for p in grid for v in vals.split(",")]
+        if a.one_at_a_time:  # the base plus each value of each key alone
+            grid += [{key: json.loads(v)} for v in vals.split(",")]
+        else:  # cartesian product
+            grid = [{**p, key: json.loads(v)} for p in grid for v in vals.split(",")]
     variants = {(_label(p) or "base"): variant_scenario(base, p) for p in grid}
     screening = screening_subset(camp, a.stride)
     baseline = Baseline()
