@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pbr_xval.engine import Event, Trajectory
+from pbr_xval.status import RunStatus
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -328,7 +329,7 @@ class Recorder:
             excitation_axis=self.scene.direction.copy(),
         )
         if self.failed:
-            traj.status = "failed"
+            traj.status = RunStatus.FAILED
             traj.message = self.failed
         from pbr_xval.diagnostics import apply_standard_diagnostics
 

@@ -33,6 +33,7 @@ from pbr_xval.errors import EngineNotAvailable, EngineSettingsError, NotApplicab
 from pbr_xval.jsonio import jsonable as _jsonable
 from pbr_xval.registry import ENTRY_POINT_GROUP, refresh_engines, registered_names
 from pbr_xval.registry import entry_points as _entry_points
+from pbr_xval.status import RunStatus
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -48,6 +49,7 @@ __all__ = [
     "EngineSettingsError",
     "Event",
     "NotApplicable",
+    "RunStatus",
     "Trajectory",
     "get_engine",
     "list_engines",
@@ -176,7 +178,7 @@ class Trajectory:
         critical tilt angle in the excitation direction, rad).
     excitation_axis : (3,) unit horizontal vector of the shaking direction.
     wall_time : s of wall-clock time spent in ``simulate``.
-    status : ``"ok"`` or ``"failed"``; ``message`` says why a run failed.
+    status : :class:`~pbr_xval.status.RunStatus` (``"ok"`` or ``"failed"``); ``message`` says why a run failed.
     """
 
     engine: str
@@ -192,7 +194,7 @@ class Trajectory:
     scene_info: dict[str, Any] = field(default_factory=dict)
     excitation_axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
     wall_time: float = 0.0
-    status: str = "ok"
+    status: RunStatus = RunStatus.OK
     message: str = ""
 
     SCHEMA_VERSION: ClassVar[int] = 1
@@ -200,7 +202,7 @@ class Trajectory:
     # ------------------------------------------------------------------ derived
     @property
     def ok(self) -> bool:
-        return self.status == "ok"
+        return self.status == RunStatus.OK
 
     @property
     def toppled(self) -> bool:
@@ -344,7 +346,7 @@ class Trajectory:
             scene_info=meta["scene_info"],
             excitation_axis=np.asarray(meta["excitation_axis"]),
             wall_time=meta["wall_time"],
-            status=meta["status"],
+            status=RunStatus(meta["status"]),
             message=meta["message"],
         )
 
@@ -369,7 +371,7 @@ class Trajectory:
             quat=np.zeros((0, 4)),
             omega=z,
             events=[Event("failed", float("nan"), {"reason": message})],
-            status="failed",
+            status=RunStatus.FAILED,
             message=message,
             **kw,
         )

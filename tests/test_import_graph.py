@@ -40,6 +40,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "pbr_xval.errors",
             "pbr_xval.version",
             "pbr_xval.registry",
+            "pbr_xval.status",
             "pbr_xval.settings_spec",
             "pbr_xval.tomlio",
         ),

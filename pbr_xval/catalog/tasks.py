@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from pbr_xval.jsonio import jsonable
+from pbr_xval.status import RunStatus
 
 __all__ = ["ROW_COLUMNS", "ChunkSpec", "build_chunks", "execute_chunk", "run_chunk", "shard_chunks"]
 
@@ -296,7 +297,7 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
             "motion_params": _canon(m["params"]), "pga": math.nan, "pgv": math.nan, "pgv_pga": math.nan,
             "mu": mu, "engine": spec.engine_label, "profile": spec.profile or "", "settings": _canon(spec.settings),
             "toppled": False, "toppled_at": math.nan, "peak_tilt": math.nan, "peak_com_disp": math.nan,
-            "wall_s": 0.0, "status": "ok", "message": "", "sim_seed": seed, "chunk_hash": h,
+            "wall_s": 0.0, "status": RunStatus.OK, "message": "", "sim_seed": seed, "chunk_hash": h,
         }  # fmt: skip
         t0 = time.perf_counter()
         try:
@@ -322,10 +323,10 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
                 d = traj.com[:, :2] - traj.com[0, :2]
                 row["peak_com_disp"] = float(np.max(np.hypot(d[:, 0], d[:, 1])))
         except NotApplicable as exc:
-            row.update(status="not_applicable", message=str(exc), wall_s=time.perf_counter() - t0)
+            row.update(status=RunStatus.NOT_APPLICABLE, message=str(exc), wall_s=time.perf_counter() - t0)
         except Exception as exc:  # a run's error is a row, not a crash of the chunk
             row.update(
-                status="error", message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0
+                status=RunStatus.ERROR, message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0
             )
         rows.append(row)
     versions = eng.versions() if hasattr(eng, "versions") else {}

@@ -54,6 +54,7 @@ from pydantic import BaseModel, ValidationError
 from pbr_xval.geometry.synthetic import SYNTHETIC_ROCK_KEYS
 from pbr_xval.jsonio import jsonable
 from pbr_xval.scenario import Scenario, ScenarioError, load_scenario, scenario_from_dict
+from pbr_xval.status import RunStatus
 from pbr_xval.study.base import StudyResult
 from pbr_xval.tomlio import read_toml, validation_lines
 
@@ -474,14 +475,14 @@ def failed_result(
     """A StudyResult recording a study that raised (rendered as a failed section)."""
     tb = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
     msg = f"{type(exc).__name__}: {exc}"
-    prov: dict[str, Any] = {"status": "failed", "error": msg, "traceback": tb}
+    prov: dict[str, Any] = {"status": RunStatus.FAILED, "error": msg, "traceback": tb}
     if scenario is not None:
         prov["scenario"] = {"name": scenario.name, "hash": scenario.content_hash()}
     return StudyResult(
         kind=kind,
         title=title,
         summary=[f"**FAILED**: {msg}"],
-        headline={"status": "failed"},
+        headline={"status": RunStatus.FAILED},
         provenance=prov,
         notes=[f"the study raised {msg}; the other studies still ran"],
     )
@@ -581,8 +582,8 @@ def run_study(
                         kind=st2.type,
                         title=f"{t2} — {se2.label}" if multi else t2,
                         summary=["**INTERRUPTED**: not run (Ctrl-C)"],
-                        headline={"status": "interrupted"},
-                        provenance={"status": "interrupted"},
+                        headline={"status": RunStatus.INTERRUPTED},
+                        provenance={"status": RunStatus.INTERRUPTED},
                     )
                     results.append(r)
                 return

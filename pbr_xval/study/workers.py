@@ -41,6 +41,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from pbr_xval.status import RunStatus
+
 if TYPE_CHECKING:
     from pbr_xval.engine import Engine, Trajectory
     from pbr_xval.scenario import Scenario
@@ -59,7 +61,15 @@ __all__ = [
     "trajectory_summary",
 ]
 
-STATUSES = ("ok", "failed", "not_applicable", "unavailable", "crash", "timeout")
+#: the outcomes a worker reports (members of :class:`pbr_xval.status.RunStatus`)
+STATUSES = (
+    RunStatus.OK,
+    RunStatus.FAILED,
+    RunStatus.NOT_APPLICABLE,
+    RunStatus.UNAVAILABLE,
+    RunStatus.CRASH,
+    RunStatus.TIMEOUT,
+)
 _ENV_LOCK = threading.Lock()
 _STDERR_TAIL = 4000
 
@@ -210,7 +220,7 @@ def simulate_batch(
     try:
         eng = resolve_engine(engine)
     except EngineNotAvailable as exc:
-        return [{"status": "unavailable", "message": str(exc)} for _ in runs]
+        return [{"status": RunStatus.UNAVAILABLE, "message": str(exc)} for _ in runs]
     for run in runs:
         t0 = time.perf_counter()
         try:
@@ -226,15 +236,15 @@ def simulate_batch(
                 versions=dict(traj.versions),
                 scenario_hash=traj.scenario_hash,
             )
-            if traj.status != "ok":
-                res["status"] = "failed"
+            if traj.status != RunStatus.OK:
+                res["status"] = RunStatus.FAILED
         except NotApplicable as exc:
-            res = {"status": "not_applicable", "message": str(exc)}
+            res = {"status": RunStatus.NOT_APPLICABLE, "message": str(exc)}
         except EngineNotAvailable as exc:
-            res = {"status": "unavailable", "message": str(exc)}
+            res = {"status": RunStatus.UNAVAILABLE, "message": str(exc)}
         except Exception as exc:
             res = {
-                "status": "failed",
+                "status": RunStatus.FAILED,
                 "message": f"{type(exc).__name__}: {exc}",
                 "traceback": traceback.format_exc(limit=8),
             }
@@ -293,7 +303,7 @@ class IsolatedResult:
     tag : the caller's tag, passed through.
     """
 
-    status: str
+    status: RunStatus
     engine: str = ""
     summary: dict[str, Any] = field(default_factory=dict)
     diagnostics: dict[str, Any] = field(default_factory=dict)
@@ -439,13 +449,13 @@ class _Job:
         self.conn.close()
         label = self.task.engine if isinstance(self.task, SimTask) else self.call.target
         res = IsolatedResult(
-            status="ok", engine=str(label), exitcode=code, signal=sig, wall_s=wall, tag=self.task.tag
+            status=RunStatus.OK, engine=str(label), exitcode=code, signal=sig, wall_s=wall, tag=self.task.tag
         )
         if timed_out:
-            res.status = "timeout"
+            res.status = RunStatus.TIMEOUT
             res.message = f"no answer within {self.timeout:g} s; worker killed"
         elif msg is None:
-            res.status = "crash"
+            res.status = RunStatus.CRASH
             how = f"killed by {sig}" if sig else f"exited with code {code}"
             res.message = f"worker process {how} before answering" + (
                 f"; stderr: {tail[-800:]}" if tail else ""
@@ -456,7 +466,7 @@ class _Job:
                     "wrap its top level in `if __name__ == '__main__':` (spawn re-imports the main module)"
                 )
         elif msg[0] == "error":
-            res.status = "failed"
+            res.status = RunStatus.FAILED
             res.message = msg[2]
         else:
             res.value = msg[1]
@@ -468,12 +478,12 @@ class _Job:
 def _fill_from_runs(res: IsolatedResult) -> None:
     runs = res.runs
     if not runs:
-        res.status = "failed"
+        res.status = RunStatus.FAILED
         res.message = "no simulation result"
         return
     bad = [r for r in runs if r.get("status") != "ok"]
     last = bad[0] if bad else runs[-1]
-    res.status = last.get("status", "failed") if bad else "ok"
+    res.status = RunStatus(last.get("status", RunStatus.FAILED)) if bad else RunStatus.OK
     res.message = str(last.get("message", ""))
     res.summary = {
         k: v for k, v in last.items() if k not in ("diagnostics", "settings", "versions", "traceback")
