@@ -8,7 +8,6 @@ import pytest
 from pbr_xval.conformance import housner_scenario, notched_scenario
 from pbr_xval.engine import EngineNotAvailable, get_engine
 from pbr_xval.scene import compile_scene
-from pbr_xval.study.threshold import find_threshold
 
 
 def _choices(scene) -> dict[str, str]:
@@ -77,21 +76,26 @@ def test_primitive_on_a_mesh_rock_is_a_clear_error() -> None:
         compile_scene(notched_scenario(model={"collision": "primitive"}))
 
 
-@pytest.mark.parametrize("engine", ["mujoco", "housner"])
-def test_reductions_leave_conformance_results_unchanged(engine: str) -> None:
+def test_reductions_keep_the_independent_references() -> None:
+    """With each collision reduction a 3-D engine still meets the exact references.
+
+    (The analytical engines ignore collision geometry, so they cannot test a reduction.)
+    Measured with MuJoCo at dt 1e-3: notched block as boxes 5.1244, as CoACD parts 5.1231
+    (notes), vs the exact two-pivot ODE's 5.1241 (≤ 0.02 %): ± 0.3 % is the conformance
+    tolerance; the big box pedestal is reduced to the plane (Housner 5.6387 vs 5.638).
+    """
+    from pbr_xval.conformance import THRESHOLD_DURATION, notched_reference, threshold_bracket
+
     try:
-        get_engine(engine)
+        get_engine("mujoco")
     except EngineNotAvailable as exc:
         pytest.skip(str(exc))
-    settings = {"timestep": 1e-3} if engine != "housner" else {}
-
-    def thr(scn, lo, hi):
-        return find_threshold(
-            scn, engine, lo=lo, hi=hi, n_grid=3, rel_tol=2e-4, settings=settings, all_transitions=False
-        ).minimum
-
-    boxes = thr(notched_scenario(), 5.0, 5.25)
-    coacd = thr(notched_scenario(model={"collision": "coacd"}), 5.0, 5.25)
-    assert abs(coacd / boxes - 1) < 3e-3, (boxes, coacd)
-    prim = thr(housner_scenario(pedestal={"kind": "box", "half_extents": [2.0, 2.0, 0.5]}), 5.55, 5.75)
-    assert abs(prim / 5.638 - 1) < 2e-3
+    settings = {"timestep": 1e-3}
+    ref = notched_reference()["threshold"]
+    for collision in ("boxes", "coacd"):
+        scn = notched_scenario(duration=THRESHOLD_DURATION, model={"collision": collision})
+        threshold_bracket(scn, "mujoco", ref, 3e-3, settings, refine=0)
+    ped = housner_scenario(
+        duration=THRESHOLD_DURATION, pedestal={"kind": "box", "half_extents": [2.0, 2.0, 0.5]}
+    )
+    threshold_bracket(ped, "mujoco", 5.638, 2e-3, settings, refine=0)

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import shutil
 from pathlib import Path
 
 import pytest
 from rich.console import Console
 
+from pbr_xval import conformance as conf
 from pbr_xval.cli.report_impl import regress_command
 from pbr_xval.study.regress import GoldenError, read_golden, regress
 
@@ -118,7 +120,47 @@ def test_malformed_golden_tables(tmp_path: Path, text: str, match: str) -> None:
     assert regress_command(p, update=False, engines=None, fast=False, console=_con()) == 2
 
 
-@pytest.mark.slow
 def test_committed_fast_table_passes() -> None:
+    # what docs/ci_regression.md says the project's CI runs: the full search on every row
     res = regress(EXAMPLES / "golden" / "fast.csv")
     assert res.exit_code == 0, res.diff_text()
+    assert [r.status for r in res.rows] == ["PASS"] * len(res.rows)
+
+
+def _makris_roussos_linear_threshold(
+    b: float = 0.2, h: float = 0.6, g: float = 9.81, f: float = 1.0
+) -> float:
+    """Makris & Roussos (2000) eq. 27: (ω/p) sin ψ − cos ψ = exp[−(p/ω)(π − ψ)], a = αg / sin ψ."""
+    from scipy.optimize import brentq
+
+    alpha = math.atan2(b, h)
+    p = math.sqrt(3 * g / (4 * math.hypot(b, h)))
+    w = 2 * math.pi * f
+    psi = brentq(
+        lambda s: (w / p) * math.sin(s) - math.cos(s) - math.exp(-(p / w) * (math.pi - s)), 1e-6, 1.5
+    )
+    return alpha * g / math.sin(psi)
+
+
+def test_golden_analytical_rows_match_independent_references() -> None:
+    """The analytical rows of both golden tables are not pinned from our own engine's output:
+    each value must lie within its row's tolerance of a reference computed independently here
+    (the exact two-pivot ODE of pbr_xval.conformance.PlanarBlock, which reproduces the
+    published 5.638, and Makris & Roussos' closed form for the linearized equation)."""
+    refs = {
+        ("housner_halfsine.toml", "exact"): conf.PlanarBlock(((-0.2, 0.2, 0.0, 1.2),)).half_sine_threshold(),
+        ("notched_block.toml", "exact"): conf.notched_reference()["threshold"],
+        # closed form 5.4405; the linearized ODE with the exact uplift phase gives 5.4418 (notes §0)
+        ("housner_halfsine.toml", "linearized"): _makris_roussos_linear_threshold(),
+    }
+    assert refs[("housner_halfsine.toml", "linearized")] == pytest.approx(5.4405, abs=5e-5)
+    seen = set()
+    for table in ("thresholds.csv", "fast.csv"):
+        rows, _ = read_golden(EXAMPLES / "golden" / table)
+        for r in rows:
+            if r.engine != "housner":
+                continue
+            key = (Path(r.scenario).name, r.settings.get("variant", "exact"))
+            assert abs(r.threshold - refs[key]) <= r.tolerance, (table, r.scenario, r.threshold, refs[key])
+            seen.add(key)
+    assert seen == set(refs)
