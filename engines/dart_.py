@@ -37,22 +37,12 @@ from pbr_xval.engine import (
     Capabilities,
     EngineBase,
     EngineSettingsError,
-    Event,
     NotApplicable,
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.engines._common import (
-    COLLISION_CHOICES,
-    GROUND_MODES,
-    Recorder,
-    StderrCapture,
-    cache_dir,
-    collision_parts,
-    initial_pose,
-    n_steps,
-    write_obj,
-)
+from pbr_xval.engines._common import COLLISION_CHOICES, StderrCapture, cache_dir, collision_parts, write_obj
+from pbr_xval.stepping import GROUND_MODES, StepBlock, gravity_sequence, run_steps
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -192,10 +182,12 @@ class DartEngine(EngineBase):
         com = np.asarray(rock.com, dtype=float)
         kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         if kind == "primitive":
+            assert rock.primitive is not None  # collision_parts gives this kind only when it exists
             he = np.asarray(rock.primitive["half_extents"], dtype=float)
             centre = 0.5 * (rock.mesh.bounds[0] + rock.mesh.bounds[1])
             return [(D.BoxShape(2.0 * he), np.asarray(rock.rotation, float), centre - com)], "box primitive"
         if kind == "boxes":
+            assert rock.box_parts is not None  # collision_parts gives this kind only when it exists
             out = [
                 (
                     D.BoxShape(2.0 * np.asarray(h, float)),
@@ -323,13 +315,7 @@ class DartEngine(EngineBase):
                 elif s["lcp_solver"] == "fbf":
                     cs.setBoxedLcpSolver(dart.constraint.FbfFrictionSolver())
 
-            # ---- initial state
-            tilted = scene.theta0 != 0.0 or scene.omega0 != 0.0
-            c_init, r_init, v_init, w_init = initial_pose(scene)
-            fj.setTransform(dart.math.Isometry3(r_init, c_init))
-            if tilted:
-                fj.setLinearVelocity(v_init)
-                fj.setAngularVelocity(w_init)
+            fj.setTransform(dart.math.Isometry3(np.eye(3), com0))  # the rest pose; run_steps tilts
         except NotApplicable:
             raise
         except EngineSettingsError:
@@ -351,88 +337,102 @@ class DartEngine(EngineBase):
         if rock.shape in ("mesh", "curved_base") and s["collision_detector"] in ("dart", "bullet"):
             diag["warning"] = "the DART-native and Bullet detectors make wrong mesh contacts (notes §5)"
 
-        # ---- excitation, precomputed (n, 3) at mid-step
-        n = n_steps(scene.duration, dt)
-        t_mid = (np.arange(n) + 0.5) * dt
-        acc = np.ascontiguousarray(
-            np.asarray(scene.excitation.acceleration(t_mid), dtype=float).reshape(n, 3)
-        )
-        grav = np.empty((n, 3))
-        grav[:, 0] = -acc[:, 0]
-        grav[:, 1] = -acc[:, 1]
-        grav[:, 2] = -g - acc[:, 2]
-
-        rec = Recorder(scene, dt)
+        st = _DartStepper(dart, world, scene, fj, body, rskel, pj, moving)
         cap = StderrCapture()
-        steps = 0
-        # energy, regime, impacts, settled: pbr_xval.diagnostics, from the recorded samples
-        try:
-            with cap.capture():
-                # ---- settle (gravity only, pedestal at rest)
-                if tilted:
-                    diag["settle_skipped"] = (
-                        "initial tilt/rate given: started from initial_pose(scene), no settling"
-                    )
-                elif s["settle"] and scene.settle_time > 0:
-                    zero3 = np.zeros(3)
-                    for _ in range(n_steps(scene.settle_time, dt)):
-                        if moving:
-                            pj.setCommands(zero3)
-                        world.step()
-                T = body.getTransform()
-                if tilted:
-                    rec.start(com0, np.eye(3))
-                else:
-                    rec.start(T.translation(), T.rotation())
-                if moving:
-                    # the pedestal starts at the excitation's displacement/velocity at t = 0; the rock rides along
-                    d0 = np.asarray(scene.excitation.displacement(0.0), dtype=float).reshape(3)
-                    v0 = np.asarray(scene.excitation.velocity(0.0), dtype=float).reshape(3)
-                    if np.any(d0 != 0.0) or np.any(v0 != 0.0):
-                        pj.setPositions(d0)
-                        pj.setVelocities(v0)
-                        T = body.getTransform()
-                        fj.setTransform(dart.math.Isometry3(T.rotation(), T.translation() + d0))
-                        fj.setLinearVelocity(body.getLinearVelocity() + v0)
-
-                # ---- excitation
-                # FreeJoint generalised velocities are (ω, v) in world coordinates in dartpy 6.20;
-                # reading them (1 µs) is 4× cheaper than BodyNode.getAngularVelocity(); checked here.
-                fast_omega = _freejoint_velocity_is_world(dart)
-                last = None
-                for k in range(n):
-                    if moving:
-                        pj.setCommands(acc[k])
-                    else:
-                        gk = grav[k]
-                        if last is None or gk[0] != last[0] or gk[1] != last[1] or gk[2] != last[2]:
-                            world.setGravity(gk)
-                            last = gk
-                    world.step()
-                    steps += 1
-                    T = body.getTransform()
-                    p = T.translation()
-                    if moving:
-                        p = p - pj.getPositions()
-                    res = world.getLastCollisionResult()
-                    contacts = res.getContacts()
-                    nc = len(contacts)
-                    pen = max([c.penetrationDepth for c in contacts], default=0.0)
-                    omega = rskel.getVelocities()[:3] if fast_omega else body.getAngularVelocity()
-                    stop = rec.record((k + 1) * dt, p, T.rotation(), omega, n_contacts=nc, penetration=pen)
-                    if stop:
-                        break
-        except Exception as exc:  # engine error while stepping: report, do not raise
-            if not rec.failed:
-                rec.failed = f"dart: engine error after {steps} steps: {exc!r}"
-                rec.events.append(Event("failed", steps * dt, {"reason": rec.failed}))
-
+        with cap.capture():
+            rec, loop = run_steps(st, scene, dt, settle=bool(s["settle"]), name=self.name)
+        diag.update(loop)
         lines = cap.text.splitlines()
         lcp_fail = sum(1 for ln in lines if any(nd in ln for nd in _LCP_FAILURE_NEEDLES))
         diag.update(
-            steps=steps,
             dart_lcp_failure_lines=lcp_fail,
             dart_stderr_lines=len(lines),
             dart_stderr_first_line=lines[0][:200] if lines else "",
         )
         return rec.trajectory(self.name, s, versions, diag)
+
+
+class _DartStepper:
+    """DART side of :func:`pbr_xval.stepping.run_steps` (one World per run)."""
+
+    def __init__(
+        self, dart: Any, world: Any, scene: Scene, fj: Any, body: Any, rskel: Any, pj: Any, moving: bool
+    ) -> None:
+        self.dart, self.world, self.scene, self.fj, self.body = dart, world, scene, fj, body
+        self.rskel, self.pj, self.moving = rskel, pj, moving
+        self.dt = float(world.getTimeStep())
+        self.rest_rotation = np.eye(3)
+
+    def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
+        self.fj.setTransform(self.dart.math.Isometry3(rot, com))
+        self.fj.setLinearVelocity(vel)
+        self.fj.setAngularVelocity(omega)
+
+    def settle(self, n: int) -> None:
+        zero3 = np.zeros(3)
+        for _ in range(n):  # gravity only, pedestal at rest
+            if self.moving:
+                self.pj.setCommands(zero3)
+            self.world.step()
+
+    def state(self) -> tuple[np.ndarray, np.ndarray, float]:
+        T, b = self.body.getTransform(), self.body
+        size = float(np.ptp(self.scene.rock.mesh.vertices))
+        speed = (
+            float(np.linalg.norm(b.getLinearVelocity()))
+            + float(np.linalg.norm(b.getAngularVelocity())) * size
+        )
+        return T.translation(), T.rotation(), speed
+
+    def begin(self, n: int) -> None:
+        scene, dt = self.scene, self.dt
+        t_mid = (np.arange(n) + 0.5) * dt
+        self.acc = np.ascontiguousarray(
+            np.asarray(scene.excitation.acceleration(t_mid), dtype=float).reshape(n, 3)
+        )
+        self.grav = gravity_sequence(scene, t_mid)
+        if self.moving:
+            # the pedestal starts at the excitation's displacement/velocity at t = 0; the rock rides along
+            d0 = np.asarray(scene.excitation.displacement(0.0), dtype=float).reshape(3)
+            v0 = np.asarray(scene.excitation.velocity(0.0), dtype=float).reshape(3)
+            if np.any(d0 != 0.0) or np.any(v0 != 0.0):
+                self.pj.setPositions(d0)
+                self.pj.setVelocities(v0)
+                T = self.body.getTransform()
+                self.fj.setTransform(self.dart.math.Isometry3(T.rotation(), T.translation() + d0))
+                self.fj.setLinearVelocity(self.body.getLinearVelocity() + v0)
+        # FreeJoint generalised velocities are (ω, v) in world coordinates in dartpy 6.20;
+        # reading them (1 µs) is 4× cheaper than BodyNode.getAngularVelocity(); checked here.
+        self.fast_omega = _freejoint_velocity_is_world(self.dart)
+        self.last: np.ndarray | None = None
+
+    def sample(self, block: StepBlock) -> None:
+        raise NotImplementedError("dart records from the first step")
+
+    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
+        world, body, pj, moving, acc, grav = self.world, self.body, self.pj, self.moving, self.acc, self.grav
+        rskel, fast = self.rskel, self.fast_omega
+        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
+        last = self.last
+        for i, k in enumerate(range(k0, k1)):
+            if moving:
+                pj.setCommands(acc[k])
+            else:
+                gk = grav[k]
+                if last is None or gk[0] != last[0] or gk[1] != last[1] or gk[2] != last[2]:
+                    world.setGravity(gk)
+                    self.last = last = gk
+            world.step()
+            T = body.getTransform()
+            com[i] = T.translation()
+            if moving:
+                com[i] -= pj.getPositions()
+            rot[i] = T.rotation().ravel()
+            om[i] = rskel.getVelocities()[:3] if fast else body.getAngularVelocity()
+            contacts = world.getLastCollisionResult().getContacts()
+            ncon[i] = len(contacts)
+            pen[i] = max([c.penetrationDepth for c in contacts], default=0.0)
+            block.n = i + 1
+
+    def end(self) -> None:
+        pass

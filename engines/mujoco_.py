@@ -21,7 +21,6 @@ Measured ground truth and pitfalls: ``/work/shared/notes/engines_pybullet_mujoco
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -35,14 +34,8 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.engines._common import (
-    COLLISION_CHOICES,
-    GROUND_MODES,
-    Recorder,
-    collision_parts,
-    initial_pose,
-    n_steps,
-)
+from pbr_xval.engines._common import COLLISION_CHOICES, collision_parts, model_key
+from pbr_xval.stepping import GROUND_MODES, StepBlock, fail, gravity_sequence, matrix_to_quat, run_steps
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -60,8 +53,6 @@ def _import_mujoco() -> Any:
 
 
 def _mat_to_quat(r: np.ndarray) -> list[float]:
-    from pbr_xval.engines._common import matrix_to_quat
-
     return [float(x) for x in matrix_to_quat(r)]
 
 
@@ -76,15 +67,6 @@ def _dampratio_from_restitution(e: float) -> float:
         return 0.0
     ln = math.log(e)
     return -ln / math.sqrt(math.pi**2 + ln**2)
-
-
-def _fail(rec: Recorder, t: float, message: str) -> None:
-    """Mark the recording failed (first reason wins) with a ``failed`` event."""
-    from pbr_xval.engine import Event
-
-    if not rec.failed:
-        rec.failed = message
-        rec.events.append(Event("failed", t, {"reason": message}))
 
 
 class MuJoCoEngine(EngineBase):
@@ -298,6 +280,7 @@ class MuJoCoEngine(EngineBase):
         kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         rq = _mat_to_quat(np.asarray(rock.rotation, dtype=float))
         if kind == "primitive":
+            assert rock.primitive is not None  # collision_parts gives this kind only when it exists
             centre = rock.mesh.bounds.mean(axis=0)
             g = body.add_geom(
                 type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -308,6 +291,7 @@ class MuJoCoEngine(EngineBase):
             contact(g)
             info.update(collision="box primitive", parts=1)
         elif kind == "boxes":
+            assert rock.box_parts is not None  # collision_parts gives this kind only when it exists
             for c, h in rock.box_parts:
                 g = body.add_geom(
                     type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -343,9 +327,8 @@ class MuJoCoEngine(EngineBase):
         if scene.rock.shape not in self.capabilities.shapes:
             raise NotApplicable(f"mujoco: rock shape {scene.rock.shape!r} is not supported")
         versions = self.versions()
-        dt = float(s["timestep"])
         try:
-            m, info = self._build(mujoco, scene, s)
+            m, info = self._model(mujoco, scene, s)
         except NotApplicable:
             raise
         except Exception as exc:  # model compilation errors (e.g. a degenerate mesh part)
@@ -358,155 +341,135 @@ class MuJoCoEngine(EngineBase):
                 scene_info=scene.info(),
                 excitation_axis=scene.direction.copy(),
             )
-        d = mujoco.MjData(m)
-        rec = Recorder(scene, dt)
-        try:
-            diag = self._run(mujoco, m, d, scene, s, rec, info)
-        except Exception as exc:  # engine errors never escape: a failed trajectory
-            diag = {"exception": f"{type(exc).__name__}: {exc}"}
-            _fail(rec, rec.t[-1] if rec.t else 0.0, f"mujoco error: {type(exc).__name__}: {exc}")
+        st = _MjStepper(mujoco, m, scene, s, info)
+        rec, diag = run_steps(st, scene, float(m.opt.timestep), settle=bool(s["settle"]), name=self.name)
+        warnings = {}
+        for w in mujoco.mjtWarning.__members__.values():
+            if int(w) < int(mujoco.mjtWarning.mjNWARNING) and st.d.warning[int(w)].number:
+                warnings[w.name] = int(st.d.warning[int(w)].number)
+        diag.update(ground_motion=s["ground_motion"], mujoco_warnings=warnings)
+        if warnings.get("mjWARN_BADQACC"):
+            n = warnings["mjWARN_BADQACC"]
+            fail(rec, diag["steps"] * st.dt, f"mujoco: bad acceleration (mjWARN_BADQACC × {n})")
         diag.update({f"model_{k}": v for k, v in info.items()})
         return rec.trajectory(self.name, s, versions, diag)
 
-    def _run(
-        self, mujoco: Any, m: Any, d: Any, scene: Scene, s: dict[str, Any], rec: Recorder, info: dict[str, Any]
-    ) -> dict[str, Any]:
-        dt = float(m.opt.timestep)
-        moving = info["moving"]
+    def _model(self, mujoco: Any, scene: Scene, s: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+        """The compiled model, cached by scene geometry and settings (one compile per worker)."""
+        key = model_key(scene, s)
+        hit = _MODEL_CACHE.get(key)
+        if hit is None:
+            hit = self._build(mujoco, scene, s)
+            _MODEL_CACHE.clear()  # one model per worker: a sweep reuses it, a new scene replaces it
+            _MODEL_CACHE[key] = hit
+        return hit[0], dict(hit[1])
+
+
+_MODEL_CACHE: dict[str, tuple[Any, dict[str, Any]]] = {}
+
+
+class _MjStepper:
+    """MuJoCo side of :func:`pbr_xval.stepping.run_steps` (one MjData per run)."""
+
+    def __init__(self, mujoco: Any, m: Any, scene: Scene, s: dict[str, Any], info: dict[str, Any]) -> None:
+        self.mj, self.m, self.scene, self.s = mujoco, m, scene, s
+        self.d = d = mujoco.MjData(m)
+        self.dt = float(m.opt.timestep)
+        self.moving = bool(info["moving"])
+        self.rest_rotation = np.eye(3)
         rock_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "rock")
         jr = m.body_jntadr[rock_id]
         qa, va = int(m.jnt_qposadr[jr]), int(m.jnt_dofadr[jr])
-        if moving:
+        self.pos, self.quat = d.qpos[qa : qa + 3], d.qpos[qa + 3 : qa + 7]
+        self.vlin, self.wbody = d.qvel[va : va + 3], d.qvel[va + 3 : va + 6]
+        self.npj = 3 if scene.excitation.vertical is not None else 2
+        if self.moving:
             j0 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ped0")
             pq, pv = int(m.jnt_qposadr[j0]), int(m.jnt_dofadr[j0])
-            npj = 3 if scene.excitation.vertical is not None else 2
-        g = float(scene.gravity)
-
-        pos = d.qpos[qa : qa + 3]
-        quat = d.qpos[qa + 3 : qa + 7]
-        vlin = d.qvel[va : va + 3]
-        wbody = d.qvel[va + 3 : va + 6]
-        mat9 = np.zeros(9)
-        rot = mat9.reshape(3, 3)
-        omega = np.zeros(3)
-        relpos = np.zeros(3)
-        # energy, regime, impacts, settled: pbr_xval.diagnostics, from the recorded samples
-        diag: dict[str, Any] = {}
-
-        # ---- initial state and settling
-        com0, rot0, vel0, om0 = initial_pose(scene)
-        tilted = bool(scene.theta0 != 0.0 or scene.omega0 != 0.0)
-        wall_settle = 0.0
+            self.pqs, self.pvs = d.qpos[pq : pq + self.npj], d.qvel[pv : pv + self.npj]
+            self.pfs = d.qfrc_applied[pv : pv + self.npj]
         mujoco.mj_resetData(m, d)
-        if tilted:
-            pos[:] = com0
-            quat[:] = _mat_to_quat(rot0)
-            vlin[:] = vel0
-            wbody[:] = rot0.T @ om0
-            diag["settle_skipped"] = (
-                "initial tilt/rate given: the run starts from the tilted pose without settling"
-            )
-            rec.start(scene.rock.com, np.eye(3))
-        else:
-            nset = n_steps(float(scene.settle_time), dt) if s["settle"] and scene.settle_time > 0 else 0
-            t0 = time.perf_counter()
-            if nset and not moving:
-                mujoco.mj_step(m, d, nset)  # native multi-step: gravity only, no per-step drive
-            elif nset:
-                pqs, pvs = d.qpos[pq : pq + npj], d.qvel[pv : pv + npj]
-                for _ in range(nset):  # hold the pedestal at rest
-                    pqs[:] = 0.0
-                    pvs[:] = 0.0
-                    mujoco.mj_step(m, d)
-                pqs[:] = 0.0
-                pvs[:] = 0.0
-            wall_settle = time.perf_counter() - t0
-            diag["settle_steps"] = nset
-            speed = float(np.linalg.norm(vlin)) + float(np.linalg.norm(wbody)) * float(
-                np.ptp(scene.rock.mesh.vertices)
-            )
-            mujoco.mju_quat2Mat(mat9, quat)
-            size = float(np.ptp(scene.rock.mesh.vertices))
-            moved = float(np.linalg.norm(pos - scene.rock.com))
-            if not np.all(np.isfinite(d.qpos)) or moved > rec.explode_factor * size or speed > rec.max_speed:
-                rec.start(scene.rock.com, np.eye(3))
-                _fail(rec, 0.0, f"blow-up during settling (COM moved {moved:.3g} m, speed {speed:.3g} m/s)")
-                return diag
-            rec.start(pos.copy(), rot.copy())
-        diag["wall_settle_s"] = wall_settle
+        m.opt.gravity[:] = (0.0, 0.0, -float(scene.gravity))  # a cached model may come from a failed run
 
-        # ---- drive, precomputed (one vectorised call each)
-        n = n_steps(float(scene.duration), dt)
+    def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
+        self.pos[:] = com
+        self.quat[:] = _mat_to_quat(rot)
+        self.vlin[:] = vel
+        self.wbody[:] = rot.T @ omega
+
+    def settle(self, n: int) -> None:
+        mj, m, d = self.mj, self.m, self.d
+        if n and not self.moving:
+            mj.mj_step(m, d, n)  # native multi-step: gravity only, no per-step drive
+        elif n:
+            for _ in range(n):  # hold the pedestal at rest
+                self.pqs[:] = 0.0
+                self.pvs[:] = 0.0
+                mj.mj_step(m, d)
+            self.pqs[:] = 0.0
+            self.pvs[:] = 0.0
+
+    def state(self) -> tuple[np.ndarray, np.ndarray, float]:
+        mat9 = np.zeros(9)
+        self.mj.mju_quat2Mat(mat9, self.quat)
+        size = float(np.ptp(self.scene.rock.mesh.vertices))
+        speed = float(np.linalg.norm(self.vlin)) + float(np.linalg.norm(self.wbody)) * size
+        if not np.all(np.isfinite(self.d.qpos)):
+            speed = math.inf
+        return self.pos.copy(), mat9.reshape(3, 3), speed
+
+    def begin(self, n: int) -> None:
+        scene, dt, npj = self.scene, self.dt, self.npj
         tk = np.arange(n) * dt
-        acc_mid = np.ascontiguousarray(scene.excitation.acceleration(tk + 0.5 * dt), dtype=float).reshape(
-            n, 3
-        )
-        if moving:
+        if self.moving:
+            acc_mid = np.asarray(scene.excitation.acceleration(tk + 0.5 * dt), dtype=float).reshape(n, 3)
             disp = scene.excitation.displacement(tk).reshape(n, 3)
-            vel = scene.excitation.velocity(tk).reshape(n, 3)
-            disp = np.ascontiguousarray(disp - disp[0])[:, :npj].copy()
-            vel = np.ascontiguousarray(vel[:, :npj]).copy()
-            frc = float(s["pedestal_mass"]) * acc_mid[:, :npj]
-            vlin += scene.excitation.velocity(0.0)  # the rock moves with the pedestal at t = 0
-            pqs, pvs, pfs = d.qpos[pq : pq + npj], d.qvel[pv : pv + npj], d.qfrc_applied[pv : pv + npj]
-            ppos = np.zeros(3)
-            pview = d.qpos[pq : pq + npj]
+            self.disp = np.ascontiguousarray(disp - disp[0])[:, :npj].copy()
+            self.vel = np.ascontiguousarray(scene.excitation.velocity(tk).reshape(n, 3)[:, :npj]).copy()
+            self.frc = float(self.s["pedestal_mass"]) * acc_mid[:, :npj]
+            self.vlin += scene.excitation.velocity(0.0)  # the rock moves with the pedestal at t = 0
         else:
-            grav_seq = np.empty((n, 3))
-            grav_seq[:, 0] = -acc_mid[:, 0]
-            grav_seq[:, 1] = -acc_mid[:, 1]
-            grav_seq[:, 2] = -g - acc_mid[:, 2]
-            grav = m.opt.gravity
+            self.grav_seq = gravity_sequence(scene, tk + 0.5 * dt)
 
-        # ---- main loop
-        step = mujoco.mj_step
-        quat2mat = mujoco.mju_quat2Mat
-        record = rec.record
-        matmul = np.matmul
-        k = 0
-        t_loop = time.perf_counter()
-        for k in range(n):
-            if moving:
+    def sample(self, block: StepBlock) -> None:
+        raise NotImplementedError("mujoco records from the first step")
+
+    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
+        mj, m, d = self.mj, self.m, self.d
+        step, quat2mat = mj.mj_step, mj.mju_quat2Mat
+        pos, quat, wbody = self.pos, self.quat, self.wbody
+        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
+        if self.moving:
+            disp, vel, frc, pqs, pvs, pfs = self.disp, self.vel, self.frc, self.pqs, self.pvs, self.pfs
+            for i, k in enumerate(range(k0, k1)):
                 pqs[:] = disp[k]
                 pvs[:] = vel[k]
                 pfs[:] = frc[k]
-            else:
-                grav[:] = grav_seq[k]
-            step(m, d)
-            quat2mat(mat9, quat)
-            matmul(rot, wbody, out=omega)
-            ncon = d.ncon
-            pen = -min(d.contact.dist.tolist()) if ncon else 0.0
-            if moving:
-                ppos[:npj] = pview
-                np.subtract(pos, ppos, out=relpos)
-                com = relpos
-            else:
-                com = pos
-            if record((k + 1) * dt, com, rot, omega, n_contacts=ncon, penetration=pen):
-                break
-        wall_loop = time.perf_counter() - t_loop
-        if moving:
-            pfs[:] = 0.0
+                step(m, d)
+                com[i] = pos
+                com[i, : self.npj] -= pqs
+                quat2mat(rot[i], quat)
+                om[i] = wbody
+                nc = ncon[i] = d.ncon
+                pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
+                block.n = i + 1
         else:
-            grav[:] = (0.0, 0.0, -g)
-        # always keep the final state as a sample
-        if n and not rec.failed and (not rec.t or rec.t[-1] < (k + 1) * dt - 1e-12):
-            record((k + 1) * dt, com, rot, omega, force=True)
+            grav, gseq = m.opt.gravity, self.grav_seq
+            for i, k in enumerate(range(k0, k1)):
+                grav[:] = gseq[k]
+                step(m, d)
+                com[i] = pos
+                quat2mat(rot[i], quat)
+                om[i] = wbody
+                nc = ncon[i] = d.ncon
+                pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
+                block.n = i + 1
+        # ω in the pedestal frame = R ω_body, one stacked product per block
+        n = block.n
+        om[:n] = np.matmul(rot[:n].reshape(n, 3, 3), om[:n, :, None])[:, :, 0]
 
-        warnings = {}
-        for w in mujoco.mjtWarning.__members__.values():
-            if int(w) < int(mujoco.mjtWarning.mjNWARNING) and d.warning[int(w)].number:
-                warnings[w.name] = int(d.warning[int(w)].number)
-        diag.update(
-            steps=k + 1,
-            ground_motion=s["ground_motion"],
-            mujoco_warnings=warnings,
-            wall_loop_s=wall_loop,
-            wall_per_step_us=1e6 * wall_loop / max(k + 1, 1),
-        )
-        if warnings.get("mjWARN_BADQACC"):
-            _fail(
-                rec, (k + 1) * dt, f"mujoco: bad acceleration (mjWARN_BADQACC × {warnings['mjWARN_BADQACC']})"
-            )
-        return diag
+    def end(self) -> None:
+        if self.moving:
+            self.pfs[:] = 0.0
+        else:
+            self.m.opt.gravity[:] = (0.0, 0.0, -float(self.scene.gravity))

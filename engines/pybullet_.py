@@ -28,22 +28,13 @@ from pbr_xval.engine import (
     Capabilities,
     EngineBase,
     EngineSettingsError,
-    Event,
     NotApplicable,
     Trajectory,
     import_engine_package,
 )
+from pbr_xval.stepping import GROUND_MODES, StepBlock, gravity_sequence, matrix_to_quat, run_steps
 
-from ._common import (
-    COLLISION_CHOICES,
-    GROUND_MODES,
-    Recorder,
-    collision_parts,
-    initial_pose,
-    matrix_to_quat,
-    n_steps,
-    write_obj,
-)
+from ._common import COLLISION_CHOICES, collision_parts, write_obj
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -263,14 +254,16 @@ class PyBulletEngine(EngineBase):
         frame_pos = [0.0, 0.0, 0.0]
         if kind == "plane" and s["plane_pedestal"] == "plane" and not moving:
             shape = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
-        elif kind in ("plane", "box"):
-            he = s["plane_box_half_extents"] if kind == "plane" else ped["half_extents"]
-            he = [float(x) for x in he]
+        elif ped["kind"] in ("plane", "box"):
+            he = [
+                float(x)
+                for x in (ped["half_extents"] if ped["kind"] == "box" else s["plane_box_half_extents"])
+            ]
             frame_pos = [0.0, 0.0, -he[2]]
             shape = p.createCollisionShape(
                 p.GEOM_BOX, halfExtents=he, collisionFramePosition=frame_pos, physicsClientId=cid
             )
-        elif kind == "mesh":
+        elif ped["kind"] == "mesh":
             if moving:
                 raise NotApplicable("pybullet: a mesh pedestal is a static concave trimesh; it cannot move")
             m = ped["mesh"]
@@ -402,104 +395,110 @@ class PyBulletEngine(EngineBase):
             "ground_motion": s["ground_motion"],
         }
 
-        # ---- initial state: settle from rest, or start tilted
-        com_i, rot_i, vel_i, om_i = initial_pose(scene)
-        tilted = bool(scene.theta0 != 0.0 or scene.omega0 != 0.0)
-        n_settle = 0
-        if tilted:
-            p.resetBasePositionAndOrientation(body, com_i.tolist(), _xyzw(rot_i @ rot0), physicsClientId=cid)
-            p.resetBaseVelocity(body, vel_i.tolist(), om_i.tolist(), physicsClientId=cid)
-            diagnostics["settle_skipped"] = "the run starts tilted or rotating (scene.theta0/omega0)"
-        elif s["settle"] and scene.settle_time > 0:
-            n_settle = n_steps(scene.settle_time, dt)
-        getpos = p.getBasePositionAndOrientation
-        getvel = p.getBaseVelocity
-        getmat = p.getMatrixFromQuaternion
-        getcp = p.getContactPoints
-        step = p.stepSimulation
-        setg = p.setGravity
-        reset_joint = p.resetJointState
-        push = p.applyExternalForce
-        world = p.WORLD_FRAME
-        # the moving pedestal's vertical link must not fall under gravity within a step
-        lift = [0.0, 0.0, float(s["pedestal_mass"]) * g]
-
-        # ---- drive, precomputed: inertial gravity at mid-step, or pedestal states at t_k
-        n = n_steps(scene.duration, dt)
-        if moving:
-            tk = np.arange(n + 1) * dt
-            disp = scene.excitation.displacement(tk)[:, :axes]
-            vel = (np.diff(disp, axis=0) / dt).tolist()  # mean pedestal velocity over each step
-            dpos = np.zeros((n + 1, 3))
-            dpos[:, :axes] = disp
-            dpos_l = dpos.tolist()
-            disp_l = disp.tolist()
-            drive: list[tuple[float, float, float]] = []
-        else:
-            acc = scene.excitation.acceleration((np.arange(n) + 0.5) * dt)
-            drive = [(-ax, -ay, -g - az) for ax, ay, az in acc.tolist()]
-
-        # energy, regime, impacts, settled: pbr_xval.diagnostics, from the recorded samples
-        def state(k: int) -> tuple[Any, np.ndarray, tuple]:
-            pos, orn = getpos(body, physicsClientId=cid)
-            _, ang = getvel(body, physicsClientId=cid)
-            if moving:
-                d = dpos_l[k]
-                pos = (pos[0] - d[0], pos[1] - d[1], pos[2] - d[2])
-            return pos, np.array(getmat(orn)).reshape(3, 3), ang
-
-        def contacts() -> tuple[int, float]:
-            cps = getcp(body, physicsClientId=cid)
-            if not cps:
-                return 0, 0.0
-            return len(cps), max(0.0, -min(c[8] for c in cps))
-
-        rec = Recorder(scene, dt)
-        steps = 0
-        t = 0.0
-        try:
-            for _ in range(n_settle):
-                if moving:  # hold the pedestal at rest
-                    for j in range(axes):
-                        reset_joint(ped, j, 0.0, 0.0, physicsClientId=cid)
-                    if vertical:
-                        push(ped, axes - 1, lift, [0.0, 0.0, 0.0], world, physicsClientId=cid)
-                step(physicsClientId=cid)
-                steps += 1
-            if tilted:
-                rec.start(rock.com, rot0)
-            else:
-                pos, orn = getpos(body, physicsClientId=cid)
-                rec.start(np.array(pos), np.array(getmat(orn)).reshape(3, 3))
-            diagnostics["settle_steps"] = n_settle
-
-            com, rm, ang = state(0)
-            nc, pen = contacts()
-            stop = rec.record(0.0, com, rm, ang, n_contacts=nc, penetration=pen)
-            k = 0
-            while not stop and k < n:
-                if moving:
-                    dk, vk = disp_l[k], vel[k]
-                    for j in range(axes):
-                        reset_joint(ped, j, dk[j], vk[j], physicsClientId=cid)
-                    if vertical:
-                        push(ped, axes - 1, lift, dpos_l[k], world, physicsClientId=cid)
-                else:
-                    gx, gy, gz = drive[k]
-                    setg(gx, gy, gz, physicsClientId=cid)
-                step(physicsClientId=cid)
-                k += 1
-                steps += 1
-                t = k * dt
-                com, rm, ang = state(k)
-                nc, pen = contacts()
-                stop = rec.record(t, com, rm, ang, n_contacts=nc, penetration=pen, force=k == n)
-        except Exception as exc:  # an engine error must not escape: report a failed run
-            msg = f"pybullet raised {type(exc).__name__}: {exc} at t = {t:.6g} s"
-            rec.failed = msg
-            rec.events.append(Event("failed", t, {"reason": msg}))
-
-        diagnostics["steps"] = steps
+        st = _PbStepper(p, cid, scene, s, body, ped, rot0, moving, axes)
+        rec, loop = run_steps(st, scene, dt, settle=bool(s["settle"]), sample_start=True, name=self.name)
+        diagnostics.update(loop)
         traj = rec.trajectory(self.name, s, self.versions(), diagnostics)
         traj.scene_info = {**traj.scene_info, "model": f"pybullet multibody, {model['collision']} collision"}
         return traj
+
+
+class _PbStepper:
+    """PyBullet side of :func:`pbr_xval.stepping.run_steps` (one physics client per run)."""
+
+    def __init__(
+        self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], body: int, ped: int, rot0: np.ndarray,
+        moving: bool, axes: int,
+    ) -> None:  # fmt: skip
+        self.p, self.cid, self.scene, self.body, self.ped = p, cid, scene, body, ped
+        self.rest_rotation, self.moving, self.axes = rot0, moving, axes
+        self.dt = float(s["timestep"])
+        self.vertical = scene.excitation.vertical is not None
+        # the moving pedestal's vertical link must not fall under gravity within a step
+        self.lift = [0.0, 0.0, float(s["pedestal_mass"]) * float(scene.gravity)]
+
+    def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
+        p, cid = self.p, self.cid
+        p.resetBasePositionAndOrientation(
+            self.body, com.tolist(), _xyzw(rot @ self.rest_rotation), physicsClientId=cid
+        )
+        p.resetBaseVelocity(self.body, vel.tolist(), omega.tolist(), physicsClientId=cid)
+
+    def settle(self, n: int) -> None:
+        p, cid, ped = self.p, self.cid, self.ped
+        for _ in range(n):
+            if self.moving:  # hold the pedestal at rest
+                for j in range(self.axes):
+                    p.resetJointState(ped, j, 0.0, 0.0, physicsClientId=cid)
+                if self.vertical:
+                    p.applyExternalForce(
+                        ped, self.axes - 1, self.lift, [0.0] * 3, p.WORLD_FRAME, physicsClientId=cid
+                    )
+            p.stepSimulation(physicsClientId=cid)
+
+    def state(self) -> tuple[np.ndarray, np.ndarray, float]:
+        p, cid = self.p, self.cid
+        pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=cid)
+        v, w = p.getBaseVelocity(self.body, physicsClientId=cid)
+        speed = float(np.linalg.norm(v)) + float(np.linalg.norm(w)) * float(
+            np.ptp(self.scene.rock.mesh.vertices)
+        )
+        return np.array(pos), np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3), speed
+
+    def begin(self, n: int) -> None:
+        dt, exc = self.dt, self.scene.excitation
+        if self.moving:
+            tk = np.arange(n + 1) * dt
+            disp = exc.displacement(tk)[:, : self.axes]
+            self.vel = (np.diff(disp, axis=0) / dt).tolist()  # mean pedestal velocity over each step
+            self.dpos = np.zeros((n + 1, 3))
+            self.dpos[:, : self.axes] = disp
+            self.dpos_l, self.disp_l = self.dpos.tolist(), disp.tolist()
+        else:
+            self.drive = gravity_sequence(self.scene, (np.arange(n) + 0.5) * dt).tolist()
+
+    def sample(self, block: StepBlock) -> None:
+        block.n = 0
+        self._read(0, block.com, block.rot, block.omega, block.ncon, block.pen)
+        if self.moving:
+            block.com[0] -= self.dpos[0]
+
+    def _read(
+        self, i: int, com: np.ndarray, rot: np.ndarray, om: np.ndarray, ncon: np.ndarray, pen: np.ndarray
+    ) -> None:
+        p, cid, body = self.p, self.cid, self.body
+        pos, orn = p.getBasePositionAndOrientation(body, physicsClientId=cid)
+        com[i] = pos
+        rot[i] = p.getMatrixFromQuaternion(orn)
+        om[i] = p.getBaseVelocity(body, physicsClientId=cid)[1]
+        cps = p.getContactPoints(body, physicsClientId=cid)
+        ncon[i] = len(cps)
+        pen[i] = max(0.0, -min(c[8] for c in cps)) if cps else 0.0
+
+    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
+        p, cid, ped, axes = self.p, self.cid, self.ped, self.axes
+        step, read = p.stepSimulation, self._read
+        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
+        if self.moving:
+            reset_joint, push, world = p.resetJointState, p.applyExternalForce, p.WORLD_FRAME
+            for i, k in enumerate(range(k0, k1)):
+                dk, vk = self.disp_l[k], self.vel[k]
+                for j in range(axes):
+                    reset_joint(ped, j, dk[j], vk[j], physicsClientId=cid)
+                if self.vertical:
+                    push(ped, axes - 1, self.lift, self.dpos_l[k], world, physicsClientId=cid)
+                step(physicsClientId=cid)
+                read(i, com, rot, om, ncon, pen)
+                block.n = i + 1
+                com[i] -= self.dpos[k + 1]
+        else:
+            setg, drive = p.setGravity, self.drive
+            for i, k in enumerate(range(k0, k1)):
+                gx, gy, gz = drive[k]
+                setg(gx, gy, gz, physicsClientId=cid)
+                step(physicsClientId=cid)
+                read(i, com, rot, om, ncon, pen)
+                block.n = i + 1
+
+    def end(self) -> None:
+        pass

@@ -206,8 +206,8 @@ class ReferenceEngine(EngineBase):
 
     # ------------------------------------------------------------------ simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
-        from pbr_xval.engines._common import Recorder, initial_pose
         from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
+        from pbr_xval.stepping import Recorder, initial_pose
 
         s = self.resolve_settings(settings)
         if s["lcp_method"] not in ("dantzig", "lemke"):

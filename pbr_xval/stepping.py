@@ -1,0 +1,685 @@
+"""The engine-neutral stepping core: the loop every time-stepping engine runs in.
+
+An engine adapter (``engines/*.py``) builds its model from a :class:`~pbr_xval.scene.Scene` and
+implements the small :class:`Stepper` protocol: put the rock in its initial pose, settle, step
+a block of steps natively with the drive applied (the inertial load: gravity tilted to
+(−a_x, −a_y, −g − a_z) at mid-step, or the moving pedestal) while copying the rock state after
+each step into a :class:`StepBlock`. :func:`run_steps` owns everything else: settling and the
+initial tilt (:func:`initial_pose`), the blow-up check after settling, sampling at the output
+rate, the toppling decision and NaN/explosion detection (:class:`Recorder`), failure capture
+(an engine exception becomes a failed :class:`~pbr_xval.engine.Trajectory`, never an exception)
+and the shared diagnostics (:mod:`pbr_xval.diagnostics`, applied by :meth:`Recorder.trajectory`).
+
+Speed without missed events: the recorder does not run Python per step. A block of steps is
+screened with vectorised tests that are *conservative* (a superset of every step at which the
+per-step recorder could do anything but store a sample: uplift, a tilt beyond the smallest
+critical tilt, a COM below the pedestal top, NaN, a quarter of the explosion limits); the
+flagged steps go through the exact per-step :meth:`Recorder.record`, the others are stored in
+bulk. Every step's state is kept, so no toppling event, impact or failure between samples can
+be missed, and the result is bit-identical to calling :meth:`Recorder.record` after each step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from pbr_xval.engine import Event, Trajectory
+from pbr_xval.status import RunStatus
+
+if TYPE_CHECKING:
+    from pbr_xval.scene import Scene
+
+__all__ = [
+    "GROUND_MODES",
+    "Recorder",
+    "StepBlock",
+    "Stepper",
+    "fail",
+    "gravity_sequence",
+    "initial_pose",
+    "matrices_to_quats",
+    "matrix_to_quat",
+    "n_steps",
+    "rotation_about",
+    "run_steps",
+]
+
+GROUND_MODES = ("inertial", "moving_pedestal")
+
+
+def n_steps(duration: float, dt: float) -> int:
+    """Number of steps of size ``dt`` (s) that cover ``duration`` (s)."""
+    return math.ceil(duration / dt - 1e-9)
+
+
+def matrix_to_quat(r: np.ndarray) -> np.ndarray:
+    """Scalar-first unit quaternion (4,) from a rotation matrix (3, 3) (Shepperd's method)."""
+    m = np.asarray(r, dtype=float)
+    tr = m[0, 0] + m[1, 1] + m[2, 2]
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+    else:
+        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+    qa = np.array(q)
+    if qa[0] < 0:
+        qa = -qa
+    return qa / np.linalg.norm(qa)
+
+
+def matrices_to_quats(r: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`matrix_to_quat`: (n, 3, 3) rotations → (n, 4) scalar-first quaternions.
+
+    Each row uses the numerically best of Shepperd's four branches (largest diagonal term).
+    """
+    m = np.asarray(r, dtype=float).reshape(-1, 3, 3)
+    n = m.shape[0]
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    cand = np.stack([tr, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
+    k = np.argmax(cand, axis=1)
+    q = np.empty((n, 4))
+    d21, d02, d10 = m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0], m[:, 1, 0] - m[:, 0, 1]
+    s01, s02, s12 = m[:, 0, 1] + m[:, 1, 0], m[:, 0, 2] + m[:, 2, 0], m[:, 1, 2] + m[:, 2, 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s0 = 2.0 * np.sqrt(np.maximum(tr + 1.0, 0.0))
+        s1 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], 0.0))
+        s2 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2], 0.0))
+        s3 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1], 0.0))
+        b0 = np.stack([0.25 * s0, d21 / s0, d02 / s0, d10 / s0], axis=1)
+        b1 = np.stack([d21 / s1, 0.25 * s1, s01 / s1, s02 / s1], axis=1)
+        b2 = np.stack([d02 / s2, s01 / s2, 0.25 * s2, s12 / s2], axis=1)
+        b3 = np.stack([d10 / s3, s02 / s3, s12 / s3, 0.25 * s3], axis=1)
+    for i, b in enumerate((b0, b1, b2, b3)):
+        q[k == i] = b[k == i]
+    q[q[:, 0] < 0] *= -1.0
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+@dataclass
+class Recorder:
+    """Collects the rock state during a run and turns it into a :class:`Trajectory`.
+
+    Call :meth:`start` once after settling with the rest pose, then :meth:`record` after every
+    engine step with the *pedestal-frame* state. Samples are kept every ``output_dt`` (s) plus
+    the last step. The recorder applies the scene's toppling criterion and flags NaN or
+    explosion (a COM beyond ``explode_factor`` × the rock size from its rest position, or a
+    speed beyond ``max_speed`` m/s).
+
+    The per-step cost is kept small (it runs once per engine step): the toppling test is a
+    dot product until the tilt exceeds the smallest critical angle of the rock, and rotations
+    are converted to quaternions once, at the end.
+    """
+
+    scene: Scene
+    dt: float
+    explode_factor: float = 50.0
+    max_speed: float = 1e3
+    t: list[float] = field(default_factory=list)
+    com: list[list[float]] = field(default_factory=list)
+    rot: list[list[float]] = field(default_factory=list)
+    omega: list[list[float]] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+    contacts: list[int] = field(default_factory=list)
+    max_penetration: float = 0.0
+    failed: str = ""
+    #: physical criterion: the run ended with the rock past α(φ) but tilting back
+    undecided: bool = False
+    _r0t: np.ndarray = field(default_factory=lambda: np.eye(3))
+    _z0: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    _com0: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    _next_out: float = 0.0
+    _size: float = 1.0
+    _max_dist2: float = 1.0
+    _max_omega2: float = 1.0
+    _cos_fast: float = 1.0
+    _cos_uplift: float = math.cos(1e-4)
+    _toppled: bool = False
+    _uplifted: bool = False
+    _physical: bool = False
+    _cos_down: float = 0.0
+    _t_free: float = 0.0
+    _past: bool = False
+    _outward: bool = False
+    _prev_cos: float = 1.0
+    _t_cross: float | None = None
+    _by_distance: bool = False
+    _z0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 1.0])
+    _com0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    _out_dt: float = 1e-3
+    _eps_t: float = 1e-12
+
+    def start(self, com0: np.ndarray, rot0: np.ndarray) -> None:
+        """Rest pose after settling: COM (3,) m and rotation (3, 3) of the rock body."""
+        self._r0t = np.ascontiguousarray(np.asarray(rot0, dtype=float).T)
+        # rel = R R0ᵀ, so the image of the rest vertical is R @ (R0ᵀ)[:, 2]
+        self._z0 = np.ascontiguousarray(self._r0t[:, 2])
+        self._com0 = np.asarray(com0, dtype=float).copy()
+        self._size = float(np.ptp(self.scene.rock.mesh.vertices))
+        self._max_dist2 = (self.explode_factor * self._size) ** 2
+        self._max_omega2 = (self.max_speed / self._size) ** 2
+        crit = self.scene.toppling
+        alpha_min = float(np.min(self.scene.rock.stability.alpha))
+        if crit.criterion == "critical_tilt":
+            fast = crit.factor * alpha_min
+        elif crit.criterion == "tilt_angle":
+            fast = math.radians(crit.angle_deg)
+        elif crit.criterion == "physical":
+            # below the smallest critical tilt nothing can be decided (and the rock is not down)
+            fast = min(alpha_min, math.radians(crit.down_angle_deg))
+        else:
+            fast = math.pi
+        self._cos_fast = math.cos(min(fast, math.pi))
+        self._physical = crit.criterion == "physical"
+        self._cos_down = math.cos(math.radians(crit.down_angle_deg))
+        self._t_free = float(self.scene.excitation_end)
+        self._past = False
+        self._outward = False
+        self._prev_cos = 1.0
+        self._t_cross = None
+        self._by_distance = crit.criterion == "com_displacement"
+        self._z0l = self._z0.tolist()
+        self._com0l = self._com0.tolist()
+        self._out_dt = float(self.scene.output_dt)
+        self._eps_t = 1e-9 * self.dt
+        self._next_out = 0.0
+
+    def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
+        """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
+        return np.asarray(rot, dtype=float) @ self._r0t
+
+    def record(
+        self,
+        t: float,
+        com: np.ndarray,
+        rot: np.ndarray,
+        omega: np.ndarray,
+        *,
+        n_contacts: int | None = None,
+        penetration: float | None = None,
+        force: bool = False,
+    ) -> bool:
+        """Store one state; returns True when the run should stop (toppled or failed).
+
+        Parameters
+        ----------
+        t : s since the start of the excitation.
+        com : (3,) m, pedestal frame, same origin as the scene (rock COM at rest ≈ scene.rock.com).
+        rot : (3, 3) body rotation (engine body frame → pedestal frame).
+        omega : (3,) rad/s, pedestal frame.
+        """
+        # plain Python floats: numpy calls on 3-vectors cost more than the arithmetic
+        c = com.tolist() if isinstance(com, np.ndarray) else [float(x) for x in com]
+        r = (
+            rot.ravel().tolist()
+            if isinstance(rot, np.ndarray)
+            else np.asarray(rot, dtype=float).ravel().tolist()
+        )
+        w = omega.tolist() if isinstance(omega, np.ndarray) else [float(x) for x in omega]
+        if n_contacts is not None:
+            self.contacts.append(int(n_contacts))
+        if penetration is not None and penetration > self.max_penetration:
+            self.max_penetration = float(penetration)
+        zx, zy, zz = self._z0l
+        top0 = r[0] * zx + r[1] * zy + r[2] * zz
+        top1 = r[3] * zx + r[4] * zy + r[5] * zz
+        cos_tilt = r[6] * zx + r[7] * zy + r[8] * zz
+        x0, y0, z0 = self._com0l
+        dist2 = (c[0] - x0) ** 2 + (c[1] - y0) ** 2 + (c[2] - z0) ** 2
+        om2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+        if not math.isfinite(dist2 + om2 + cos_tilt + top0 + top1):
+            self.failed = f"NaN in the state at t = {t:.6g} s"
+        elif dist2 > self._max_dist2:
+            self.failed = f"explosion: the COM moved {math.sqrt(dist2):.3g} m at t = {t:.6g} s"
+        elif om2 > self._max_omega2:
+            self.failed = f"explosion: angular speed {math.sqrt(om2):.3g} rad/s at t = {t:.6g} s"
+        if self.failed:
+            self.events.append(Event("failed", t, {"reason": self.failed}))
+            return True
+        stop = False
+        if not self._uplifted and cos_tilt < self._cos_uplift:
+            self._uplifted = True
+            self.events.append(Event("uplift", t, {"tilt_rad": math.acos(min(1.0, cos_tilt))}))
+        if self._physical:
+            if not self._toppled and (cos_tilt < self._cos_fast or c[2] < 0.0):
+                stop = self._physical_step(t, c, r, cos_tilt)
+            else:
+                self._past = False
+            self._outward = cos_tilt <= self._prev_cos
+            self._prev_cos = cos_tilt
+        elif not self._toppled and (cos_tilt < self._cos_fast or self._by_distance):
+            rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+            if self.scene.is_toppled(np.asarray(c), rel):
+                self._toppled = True
+                self.events.append(Event("toppled", t, {"rule": "first crossing"}))
+                stop = bool(self.scene.toppling.stop_on_topple)
+        if force or stop or t >= self._next_out - self._eps_t:
+            self.t.append(float(t))
+            self.com.append(c)
+            self.rot.append(r)
+            self.omega.append(w)
+            while self._next_out <= t + self._eps_t:
+                self._next_out += self._out_dt
+        return stop
+
+    def record_block(
+        self,
+        t: np.ndarray,
+        com: np.ndarray,
+        rot: np.ndarray,
+        omega: np.ndarray,
+        ncon: np.ndarray | None = None,
+        pen: np.ndarray | None = None,
+        *,
+        force_last: bool = False,
+    ) -> tuple[bool, int]:
+        """Record m consecutive steps; the same result as :meth:`record` after each step.
+
+        Parameters
+        ----------
+        t : (m,) s, increasing.
+        com : (m, 3) m, pedestal frame.
+        rot : (m, 9) row-major body rotations (engine body frame → pedestal frame).
+        omega : (m, 3) rad/s, pedestal frame.
+        ncon : (m,) contact counts, or None.
+        pen : (m,) deepest penetration per step (m), or None.
+        force_last : keep the last step as a sample (the run's final state).
+
+        Returns
+        -------
+        (stop, used): whether the run should stop, and how many steps were consumed (the
+        stopping step included).
+        """
+        m = len(t)
+        if m == 0:
+            return False, 0
+        zx, zy, zz = self._z0l
+        x0, y0, z0 = self._com0l
+        with np.errstate(invalid="ignore", over="ignore"):
+            cos = rot[:, 6] * zx + rot[:, 7] * zy + rot[:, 8] * zz
+            top = rot[:, 0:6].sum(axis=1)
+            d = com - np.array([x0, y0, z0])
+            dist2 = (d * d).sum(axis=1)
+            om2 = (omega * omega).sum(axis=1)
+            # conservative screen: a superset of the steps where record() does more than store
+            flag = ~np.isfinite(dist2 + om2 + cos + top)
+            flag |= (dist2 > 0.25 * self._max_dist2) | (om2 > 0.25 * self._max_omega2)
+            if not self._uplifted:
+                flag |= cos < self._cos_uplift
+            if not self._toppled:
+                if self._physical:
+                    flag |= (cos < self._cos_fast) | (com[:, 2] < 0.0)
+                elif self._by_distance:
+                    flag[:] = True
+                else:
+                    flag |= cos < self._cos_fast
+        if force_last:
+            flag[-1] = True
+        flagged = np.flatnonzero(flag).tolist()
+        i = 0
+        for j in [*flagged, m]:
+            if j > i:
+                self._bulk(t, com, rot, omega, ncon, pen, cos, i, j)
+            if j == m:
+                break
+            stop = self.record(
+                float(t[j]),
+                com[j],
+                rot[j],
+                omega[j],
+                n_contacts=None if ncon is None else int(ncon[j]),
+                penetration=None if pen is None else float(pen[j]),
+                force=force_last and j == m - 1,
+            )
+            if stop:
+                return True, j + 1
+            i = j + 1
+        return False, m
+
+    def _bulk(
+        self,
+        t: np.ndarray,
+        com: np.ndarray,
+        rot: np.ndarray,
+        omega: np.ndarray,
+        ncon: np.ndarray | None,
+        pen: np.ndarray | None,
+        cos: np.ndarray,
+        i: int,
+        j: int,
+    ) -> None:
+        """Steps i..j−1 of a block, none of which can change the recorder's state but by a sample."""
+        if ncon is not None:
+            self.contacts.extend(ncon[i:j].tolist())
+        if pen is not None:
+            p = pen[i:j]
+            p = p[p > self.max_penetration]
+            if p.size:
+                self.max_penetration = float(p.max())
+        if self._physical:
+            self._past = False
+            self._outward = bool(cos[j - 1] <= (cos[j - 2] if j - 2 >= i else self._prev_cos))
+            self._prev_cos = float(cos[j - 1])
+        eps = self._eps_t
+        tt = t[i:j]
+        k = i
+        while True:
+            k = i + int(np.searchsorted(tt, self._next_out - eps, side="left"))
+            if k >= j:
+                break
+            tk = float(t[k])
+            self.t.append(tk)
+            self.com.append(com[k].tolist())
+            self.rot.append(rot[k].tolist())
+            self.omega.append(omega[k].tolist())
+            while self._next_out <= tk + eps:
+                self._next_out += self._out_dt
+
+    def _decide(self, t: float, rule: str) -> bool:
+        """Record the physical toppling decision at ``t`` (s); returns whether to stop."""
+        self._toppled = True
+        t_cross = self._t_cross if self._t_cross is not None else t
+        self.events.append(Event("toppled", t_cross, {"decided_at": t, "rule": rule}))
+        return bool(self.scene.toppling.stop_on_topple)
+
+    def _physical_step(self, t: float, c: list[float], r: list[float], cos_tilt: float) -> bool:
+        """One step of the physical toppling decision (see :class:`pbr_xval.scenario.Toppling`).
+
+        Called only when the tilt exceeds the smallest critical tilt or the COM is below the
+        pedestal top; returns True when the run should stop.
+        """
+        if c[2] < 0.0:
+            return self._decide(t, "down: the centre of mass dropped below the pedestal top")
+        rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+        past = self.scene.past_critical(rel)
+        if past and not self._past:
+            self._t_cross = t
+        self._past = past
+        # down: past the critical tilt and beyond the down angle (a squat rock whose α(φ) exceeds
+        # the down angle in some direction is not down until it is past α there too)
+        if past and cos_tilt <= self._cos_down + 1e-12:
+            return self._decide(t, "down: tilt reached the down angle")
+        if past and t >= self._t_free - self._eps_t and cos_tilt <= self._prev_cos:
+            return self._decide(t, "past the critical tilt and tilting outward after the excitation ended")
+        return False
+
+    def finish(self) -> None:
+        """End-of-run part of the physical decision: past α(φ) and not tilting back → toppled.
+
+        Called by :meth:`trajectory`; a rock past α(φ) but tilting back when the run ends is not
+        counted as toppled and ``toppling_undecided`` is set in the diagnostics.
+        """
+        if not self._physical or self._toppled or self.failed or not self._past or not self.t:
+            return
+        if self._outward:
+            self._decide(self.t[-1], "past the critical tilt and not tilting back at the end of the run")
+        else:
+            self.undecided = True
+
+    def trajectory(
+        self,
+        engine: str,
+        settings: dict[str, Any],
+        versions: dict[str, str],
+        diagnostics: dict[str, Any] | None = None,
+    ) -> Trajectory:
+        """Build the Trajectory (failed if a NaN or explosion was seen)."""
+        self.finish()
+        diag = {
+            "max_penetration_m": self.max_penetration,
+            "contacts_min": int(min(self.contacts)) if self.contacts else None,
+            "contacts_max": int(max(self.contacts)) if self.contacts else None,
+            "contacts_mean": float(np.mean(self.contacts)) if self.contacts else None,
+            "nan_or_explosion": bool(self.failed),
+            "toppling_undecided": bool(self.undecided),
+        }
+        diag.update(diagnostics or {})
+        n = len(self.t)
+        rel = np.asarray(self.rot, dtype=float).reshape(n, 3, 3) @ self._r0t
+        traj = Trajectory(
+            engine=engine,
+            t=np.asarray(self.t, dtype=float),
+            com=np.asarray(self.com, dtype=float).reshape(n, 3),
+            quat=matrices_to_quats(rel).reshape(n, 4),
+            omega=np.asarray(self.omega, dtype=float).reshape(n, 3),
+            events=list(self.events),
+            diagnostics=diag,
+            settings=dict(settings),
+            versions=dict(versions),
+            scenario_hash=self.scene.scenario_hash,
+            scene_info=self.scene.info(),
+            excitation_axis=self.scene.direction.copy(),
+        )
+        if self.failed:
+            traj.status = RunStatus.FAILED
+            traj.message = self.failed
+        from pbr_xval.diagnostics import apply_standard_diagnostics
+
+        return apply_standard_diagnostics(traj, self.scene)  # regime, impacts, energy, rest: one meaning
+
+
+def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix (3, 3) for ``angle`` rad about the unit ``axis`` (3,) (Rodrigues)."""
+    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+
+
+def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Initial COM (3,), rotation (3, 3) relative to rest, COM velocity (3,) and ω (3,).
+
+    With ``scene.theta0`` ≠ 0 the rock starts tilted by θ0 about the support edge toward
+    sign(θ0)·d (the pivot), rotating at ``scene.omega0`` about that edge; otherwise at rest.
+    """
+    com = scene.rock.com.astype(float).copy()
+    th, om = float(scene.theta0), float(scene.omega0)
+    e, d = scene.rocking_axis, scene.direction
+    if th == 0.0 and om == 0.0:
+        return com, np.eye(3), np.zeros(3), np.zeros(3)
+    from pbr_xval.geometry.stability import hull_vertices, support_points
+
+    sp = support_points(hull_vertices(scene.rock.mesh.vertices))
+    x = (sp - com) @ d
+    side = 1.0 if (th > 0 or (th == 0 and om > 0)) else -1.0
+    px = x.max() if side > 0 else x.min()
+    pivot = com + px * d
+    pivot[2] = sp[:, 2].min()
+    rot = rotation_about(e, th)
+    com_t = pivot + rot @ (com - pivot)
+    omega = om * e
+    vel = np.cross(omega, com_t - pivot)
+    return com_t, rot, vel, omega
+
+
+# ------------------------------------------------------------------ the loop
+def fail(rec: Recorder, t: float, msg: str) -> None:
+    """Mark the run failed at ``t`` (s) with the reason ``msg`` (once)."""
+    if not rec.failed:
+        rec.failed = msg
+        rec.events.append(Event("failed", t, {"reason": msg}))
+
+
+def gravity_sequence(scene: Scene, t_mid: np.ndarray) -> np.ndarray:
+    """The inertial load: gravity (n, 3) m/s² = (−a_x, −a_y, −g − a_z) at the times ``t_mid`` (n,) s."""
+    n = len(t_mid)
+    acc = np.ascontiguousarray(np.asarray(scene.excitation.acceleration(t_mid), dtype=float).reshape(n, 3))
+    grav = np.empty((n, 3))
+    grav[:, 0] = -acc[:, 0]
+    grav[:, 1] = -acc[:, 1]
+    grav[:, 2] = -float(scene.gravity) - acc[:, 2]
+    return grav
+
+
+@dataclass
+class StepBlock:
+    """Per-step rock state written by :meth:`Stepper.advance` (row i: after the i-th step).
+
+    Attributes
+    ----------
+    com : (size, 3) m, pedestal frame (or the world frame with :attr:`Stepper.pedestal_offset`).
+    rot : (size, 9) row-major rotation, engine body frame → pedestal frame.
+    omega : (size, 3) rad/s.
+    ncon : (size,) contact count.
+    pen : (size,) deepest penetration, m.
+    n : rows filled so far (the adapter updates it after each step, so a step that raises
+        loses nothing already computed).
+    """
+
+    size: int
+    com: np.ndarray = field(init=False)
+    rot: np.ndarray = field(init=False)
+    omega: np.ndarray = field(init=False)
+    ncon: np.ndarray = field(init=False)
+    pen: np.ndarray = field(init=False)
+    n: int = 0
+
+    def __post_init__(self) -> None:
+        self.com = np.zeros((self.size, 3))
+        self.rot = np.zeros((self.size, 9))
+        self.omega = np.zeros((self.size, 3))
+        self.ncon = np.zeros(self.size, dtype=np.int64)
+        self.pen = np.zeros(self.size)
+
+
+class Stepper(Protocol):
+    """What an engine adapter supplies to :func:`run_steps` (everything engine-specific)."""
+
+    #: rotation (3, 3) of the engine's rock body at the untilted rest pose
+    rest_rotation: np.ndarray
+
+    def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
+        """Place the rock at COM (3,) m, rotation (3, 3) relative to rest, v (3,) m/s, ω (3,) rad/s."""
+
+    def settle(self, n: int) -> None:
+        """Step ``n`` times under gravity alone with the pedestal at rest."""
+
+    def state(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """Rock COM (3,) m, rotation (3, 3) and speed bound |v| + |ω|·size (m/s) after settling."""
+
+    def begin(self, n: int) -> None:
+        """Prepare the drive of the ``n`` steps of the run (called once, after settling)."""
+
+    def sample(self, block: StepBlock) -> None:
+        """Write the current state into row 0 of ``block`` (the t = 0 sample)."""
+
+    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
+        """Take steps k0 … k1 − 1 with the drive, writing the state after each into ``block``."""
+
+    def end(self) -> None:
+        """Remove the drive (e.g. restore gravity)."""
+
+
+def run_steps(
+    stepper: Stepper,
+    scene: Scene,
+    dt: float,
+    *,
+    settle: bool = True,
+    sample_start: bool = False,
+    block: int = 64,
+    name: str = "engine",
+) -> tuple[Recorder, dict[str, Any]]:
+    """Run a scene on ``stepper``: settle or tilt, drive, sample, decide; never raises.
+
+    Parameters
+    ----------
+    stepper : the engine adapter's :class:`Stepper`.
+    scene : the compiled scene.
+    dt : s, the time step.
+    settle : settle for ``scene.settle_time`` when the rock starts at rest.
+    sample_start : also record the state at t = 0.
+    block : steps taken natively between two recorder calls.
+    name : engine name for failure messages.
+
+    Returns
+    -------
+    The :class:`Recorder` (call :meth:`Recorder.trajectory`) and the loop's diagnostics
+    (``settle_steps`` or ``settle_skipped``, ``steps``, ``wall_loop_s``, ``wall_per_step_us``).
+    """
+    import time
+
+    rec = Recorder(scene, dt)
+    diag: dict[str, Any] = {}
+    k = 0
+    try:
+        com0, rot0, vel0, om0 = initial_pose(scene)
+        if scene.theta0 != 0.0 or scene.omega0 != 0.0:
+            stepper.set_initial(com0, rot0, vel0, om0)
+            diag["settle_skipped"] = (
+                "initial tilt/rate given: the run starts from the tilted pose, no settling"
+            )
+            rec.start(scene.rock.com, stepper.rest_rotation)
+        else:
+            nset = n_steps(float(scene.settle_time), dt) if settle and scene.settle_time > 0 else 0
+            stepper.settle(nset)
+            diag["settle_steps"] = nset
+            com, rot, speed = stepper.state()
+            size = float(np.ptp(scene.rock.mesh.vertices))
+            moved = float(np.linalg.norm(np.asarray(com) - scene.rock.com))
+            if (
+                not (np.all(np.isfinite(rot)) and math.isfinite(moved))
+                or moved > rec.explode_factor * size
+                or speed > rec.max_speed
+            ):
+                rec.start(scene.rock.com, stepper.rest_rotation)
+                fail(
+                    rec,
+                    0.0,
+                    f"{name}: blow-up during settling (COM moved {moved:.3g} m, speed {speed:.3g} m/s)",
+                )
+                return rec, diag
+            rec.start(com, rot)
+        n = n_steps(float(scene.duration), dt)
+        stepper.begin(n)
+        buf = StepBlock(max(1, int(block)))
+        if sample_start:
+            stepper.sample(buf)
+            rec.record(
+                0.0,
+                buf.com[0],
+                buf.rot[0],
+                buf.omega[0],
+                n_contacts=int(buf.ncon[0]),
+                penetration=float(buf.pen[0]),
+            )
+        t_loop = time.perf_counter()
+        stop = False
+        while not stop and k < n:
+            k1 = min(n, k + buf.size)
+            buf.n = 0
+            try:
+                stepper.advance(k, k1, buf)
+            except Exception as exc:
+                m = buf.n
+                t = np.arange(k + 1, k + m + 1) * dt
+                rec.record_block(t, buf.com[:m], buf.rot[:m], buf.omega[:m], buf.ncon[:m], buf.pen[:m])
+                k += m
+                raise exc
+            m = k1 - k
+            t = np.arange(k + 1, k1 + 1) * dt
+            stop, used = rec.record_block(
+                t, buf.com[:m], buf.rot[:m], buf.omega[:m], buf.ncon[:m], buf.pen[:m], force_last=k1 == n
+            )
+            k += used
+        wall = time.perf_counter() - t_loop
+        diag.update(wall_loop_s=wall, wall_per_step_us=1e6 * wall / max(k, 1))
+        stepper.end()
+    except Exception as exc:  # an engine error never escapes: a failed trajectory
+        diag["exception"] = f"{type(exc).__name__}: {exc}"
+        fail(
+            rec,
+            k * dt,
+            f"{name}: engine error after {k} steps (t = {k * dt:.6g} s): {type(exc).__name__}: {exc}",
+        )
+    diag["steps"] = k
+    return rec, diag
