@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Literal, NotRequired, Required, TypedDict
 
 import numpy as np
 
@@ -24,7 +24,68 @@ from pbr_xval.motion.base import Excitation3D, GroundMotion
 if TYPE_CHECKING:
     import trimesh
 
-__all__ = ["PlanarModel", "RockModel", "Scene", "compile_scene"]
+__all__ = [
+    "BoxPedestalSpec",
+    "BoxPrimitive",
+    "CollisionSpec",
+    "MeshPedestalSpec",
+    "PedestalSpec",
+    "PlanarModel",
+    "PlanePedestalSpec",
+    "RockModel",
+    "Scene",
+    "compile_scene",
+]
+
+
+# ------------------------------------------------------------- typed specs
+# Plain dictionaries at run time (engines index them, they hash and pickle as before), typed
+# for the checker: ``if ped["kind"] == "box"`` narrows a PedestalSpec to BoxPedestalSpec.
+class BoxPrimitive(TypedDict):
+    """A box rock as a primitive: ``half_extents`` (3,) m along the body axes (``RockModel.rotation``)."""
+
+    type: Literal["box"]
+    half_extents: list[float]
+
+
+#: a flat pedestal: the plane z = 0 (``from`` = ``"box"`` when a box pedestal was reduced to its top)
+PlanePedestalSpec = TypedDict("PlanePedestalSpec", {"kind": Literal["plane"], "from": NotRequired[str]})
+
+
+class BoxPedestalSpec(TypedDict):
+    """A box pedestal, top face at z = 0: ``half_extents`` (3,) m."""
+
+    kind: Literal["box"]
+    half_extents: list[float]
+
+
+class MeshPedestalSpec(TypedDict):
+    """A mesh pedestal in the scene frame (m); ``info`` = how the file was read (path, hash, units)."""
+
+    kind: Literal["mesh"]
+    mesh: trimesh.Trimesh
+    info: dict[str, Any]
+
+
+#: the pedestal as simulated
+PedestalSpec = PlanePedestalSpec | BoxPedestalSpec | MeshPedestalSpec
+
+
+class CollisionSpec(TypedDict, total=False):
+    """The rock's contact geometry chosen by the compiler (mass properties are the full mesh's).
+
+    ``kind``: ``"primitive"`` (:class:`BoxPrimitive`), ``"boxes"`` (``RockModel.box_parts``),
+    ``"hull"``, ``"coacd"`` or ``"decimated"``; ``parts``: [(vertices (n, 3) m, faces (m, 3)
+    int)] in the scene frame for the mesh kinds that were computed; ``report``/``threshold``
+    (CoACD), ``cell``/``band`` (decimation, m).
+    """
+
+    kind: Required[str]
+    parts: list[tuple[np.ndarray, np.ndarray]]
+    report: dict[str, Any]
+    threshold: float
+    cell: float
+    band: float
 
 
 @dataclass
@@ -50,7 +111,7 @@ class RockModel:
     com: np.ndarray
     inertia: np.ndarray
     mesh: trimesh.Trimesh
-    primitive: dict[str, Any] | None = None
+    primitive: BoxPrimitive | None = None
     box_parts: list[tuple[np.ndarray, np.ndarray]] | None = None
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     info: dict[str, Any] = field(default_factory=dict)
@@ -150,8 +211,9 @@ class Scene:
     ----------
     name, scenario_hash : identity and provenance of the source scenario.
     rock : :class:`RockModel`.
-    pedestal : ``{"kind": "plane"}``, ``{"kind": "box", "half_extents": [...]}`` (top at z = 0)
-        or ``{"kind": "mesh", "mesh": trimesh}``.
+    pedestal : :data:`PedestalSpec`: ``{"kind": "plane"}``, ``{"kind": "box", "half_extents":
+        [...]}`` (top at z = 0) or ``{"kind": "mesh", "mesh": trimesh, "info": {...}}``.
+    collision : :class:`CollisionSpec`, the rock's contact geometry.
     mu_s, mu_d, restitution : contact parameters.
     gravity : m/s² (magnitude, along −z).
     excitation : pedestal acceleration, :class:`Excitation3D`.
@@ -167,7 +229,7 @@ class Scene:
     scenario_hash: str
     scenario: sc.Scenario
     rock: RockModel
-    pedestal: dict[str, Any]
+    pedestal: PedestalSpec
     mu_s: float
     mu_d: float
     restitution: float
@@ -183,7 +245,7 @@ class Scene:
     toppling: sc.Toppling
     engine_settings: dict[str, dict[str, Any]]
     reductions: list[dict[str, str]] = field(default_factory=list)
-    collision: dict[str, Any] = field(default_factory=lambda: {"kind": "hull"})
+    collision: CollisionSpec = field(default_factory=lambda: CollisionSpec(kind="hull"))
     basal_nodes: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     # ------------------------------------------------------------ geometry
@@ -324,7 +386,7 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
     rz = np.array(
         [[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]]
     )
-    primitive = None
+    primitive: BoxPrimitive | None = None
     box_parts = None
     info: dict[str, Any] = {}
     if isinstance(rock, sc.BoxRock):
@@ -394,7 +456,7 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
     )
 
 
-def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[str, str]]) -> dict[str, Any]:
+def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[str, str]]) -> CollisionSpec:
     """The rock's contact geometry (mass properties are always the full mesh's)."""
     opt = scn.model
     kind = opt.collision
@@ -415,18 +477,16 @@ def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[s
         raise sc.ScenarioError(
             f"scenario {scn.name!r}: key 'model.collision': 'boxes' needs a rock made of boxes, found {rock.shape!r}"
         )
-    out: dict[str, Any] = {"kind": kind}
+    out = CollisionSpec(kind=kind)
     size = float(np.ptp(rock.mesh.vertices))
     if kind == "coacd":
         from pbr_xval.geometry.decompose import convex_parts, decomposition_report
 
         parts = convex_parts(rock.mesh, threshold=opt.coacd_threshold, seed=scn.seed)
         rep = decomposition_report(rock.mesh, parts)
-        out.update(
-            parts=[(np.asarray(p.vertices, float), np.asarray(p.faces, np.int64)) for p in parts],
-            report=rep,
-            threshold=opt.coacd_threshold,
-        )
+        out["parts"] = [(np.asarray(p.vertices, float), np.asarray(p.faces, np.int64)) for p in parts]
+        out["report"] = rep
+        out["threshold"] = opt.coacd_threshold
         why += f"; CoACD threshold {opt.coacd_threshold}: {rep['n_parts']} parts, volume error {rep['rel_volume_error']:+.2e}"
     elif kind == "decimated":
         from pbr_xval.geometry.reduce import decimate_keep_base
@@ -434,9 +494,8 @@ def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[s
         cell = opt.decimate_cell or size / 20
         band = opt.basal_band or 0.02 * float(np.ptp(rock.mesh.vertices[:, 2]))
         dec = decimate_keep_base(rock.mesh, cell, band)
-        out.update(
-            parts=[(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))], cell=cell, band=band
-        )
+        out["parts"] = [(np.asarray(dec.vertices, float), np.asarray(dec.faces, np.int64))]
+        out["cell"], out["band"] = cell, band
         why += f"; {len(rock.mesh.faces)} → {len(dec.faces)} faces, cell {cell:.3g} m, base band {band:.3g} m kept"
     elif kind == "hull":
         hull = rock.mesh.convex_hull
@@ -509,7 +568,7 @@ def compile_scene(scn: sc.Scenario) -> Scene:
     collision = _choose_collision(scn, rock, reductions)
     ped = scn.pedestal
     if isinstance(ped, sc.PlanePedestal):
-        pedestal: dict[str, Any] = {"kind": "plane"}
+        pedestal: PedestalSpec = {"kind": "plane"}
         reductions.append({"what": "pedestal", "choice": "plane", "why": "flat pedestal"})
     elif isinstance(ped, sc.BoxPedestal):
         pedestal = {"kind": "box", "half_extents": list(ped.half_extents)}

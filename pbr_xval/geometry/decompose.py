@@ -93,7 +93,8 @@ def convex_parts(
         cdir.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=".coacd_", suffix=".npz", dir=cdir)
         with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
+            # numpy's stub lets **kwds fill the keyword allow_pickle: bool (a stub gap; keys are part names)
+            np.savez(fh, **arrays)  # type: ignore[arg-type]
         os.replace(tmp, path)
     except OSError:  # a read-only cache is not an error
         pass

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 import trimesh
+from numpy.typing import ArrayLike
 from scipy.spatial import ConvexHull, cKDTree
 
 from pbr_xval.geometry.io import GeometryError
@@ -129,7 +130,7 @@ def distance_to_mesh(
 
 # ------------------------------------------------------------------------------------- cutting
 def split_by_plane(
-    geom: trimesh.Trimesh | np.ndarray, point: np.ndarray, normal: np.ndarray = (0.0, 0.0, 1.0)
+    geom: trimesh.Trimesh | np.ndarray, point: np.ndarray, normal: ArrayLike = (0.0, 0.0, 1.0)
 ) -> tuple[Any, Any]:
     """Split a closed mesh (capped) or a point cloud into (above, below) the plane."""
     n = np.asarray(normal, float) / np.linalg.norm(normal)
@@ -200,7 +201,7 @@ def _plane_basis(n: np.ndarray) -> np.ndarray:
 def contact_patch(
     rock_points: np.ndarray,
     plane_point: np.ndarray | None = None,
-    plane_normal: np.ndarray = (0.0, 0.0, 1.0),
+    plane_normal: ArrayLike = (0.0, 0.0, 1.0),
     eps: float | None = None,
 ) -> ContactPatch:
     """Rock points within ``eps`` of the pedestal plane and their support polygon.

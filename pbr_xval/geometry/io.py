@@ -152,11 +152,11 @@ def read_raw(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     if ext == ".e57":
         return _read_e57(path), None
     try:
-        loaded = trimesh.load(path, process=False)
+        loaded: Any = trimesh.load(path, process=False)  # Trimesh, PointCloud or Scene
     except Exception as exc:
         raise GeometryError(f"{path}: could not be read ({exc})") from None
     if isinstance(loaded, trimesh.Scene):
-        geoms = list(loaded.dump()) if hasattr(loaded, "dump") else list(loaded.geometry.values())
+        geoms: list[Any] = list(loaded.dump()) if hasattr(loaded, "dump") else list(loaded.geometry.values())
         meshes = [g for g in geoms if isinstance(g, trimesh.Trimesh) and len(g.faces)]
         if meshes:
             loaded = trimesh.util.concatenate(meshes)
@@ -274,8 +274,8 @@ def fill_small_holes(mesh: trimesh.Trimesh, max_area_fraction: float = 0.25, pla
     if not loops:
         return 0
     area = float(mesh.area)
-    verts = [mesh.vertices]
-    new_faces = [mesh.faces]
+    verts: list[np.ndarray] = [mesh.vertices]
+    new_faces: list[np.ndarray] = [mesh.faces]
     nv = len(mesh.vertices)
     for loop in loops:
         p = mesh.vertices[loop]

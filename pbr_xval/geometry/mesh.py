@@ -54,7 +54,7 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
     if not path.is_file():
         raise MeshError(f"{path}: file not found")
     try:
-        loaded = trimesh.load(path, force="mesh", process=False)
+        loaded: Any = trimesh.load(path, force="mesh", process=False)  # a Trimesh (force="mesh")
     except Exception as exc:
         raise MeshError(f"{path}: could not be read as a mesh ({exc})") from None
     v = np.asarray(loaded.vertices, dtype=np.float64) * UNIT_SCALE[units]

@@ -363,7 +363,7 @@ def _read_nrml_curves(path: Path, site: Any, tail: str) -> list[HazardCurve]:
         iml_el = next((e for e in b if _local(e.tag) == "IMLs"), None)
         if iml_el is None or not (iml_el.text or "").split():
             raise HazardInputError(f"{where}: <IMLs> missing or empty; expected the IM levels")
-        imls = np.array([_float(s, where, "IMLs") for s in iml_el.text.split()])
+        imls = np.array([_float(s, where, "IMLs") for s in (iml_el.text or "").split()])
         curves = [e for e in b if _local(e.tag) == "hazardCurve"]
         if not curves:
             raise HazardInputError(f"{where}: no <hazardCurve> under <hazardCurves>; expected one per site")

@@ -122,7 +122,7 @@ def write_fragility_model(
         else:
             raise TypeError(f"cannot write {type(f).__name__} as NRML")
         ff = ET.SubElement(fm, q + "fragilityFunction", id=_safe_id(f.id), format="discrete")
-        ET.SubElement(ff, q + "imls", imt=f.im, **attrs).text = " ".join(_g(v / k) for v in x)
+        ET.SubElement(ff, q + "imls", {"imt": f.im, **attrs}).text = " ".join(_g(v / k) for v in x)
         ET.SubElement(ff, q + "poes", ls=limit_state).text = " ".join(_g(float(v)) for v in p)
     ET.indent(root)
     data = ET.tostring(root, encoding="UTF-8", xml_declaration=True)

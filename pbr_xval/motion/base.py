@@ -192,7 +192,8 @@ class ScaledMotion(GroundMotion):
         if not np.isfinite(factor):
             raise ValueError(f"factor must be a finite number, got {factor!r}")
         if isinstance(base, ScaledMotion):
-            base, factor = base.base, base.factor * factor
+            factor = base.factor * factor
+            base = base.base
         self.base = base
         self.factor = factor
         self.name = f"{base.name}*{factor:g}"

@@ -16,9 +16,9 @@ Every step is explicit (nothing is applied unless asked) and recorded in the rec
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from fractions import Fraction
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 from scipy.signal import resample_poly
@@ -93,6 +93,10 @@ def _scale(motion: GroundMotion, target: float, peak: float, what: str) -> Groun
     return motion.scaled(target / peak)
 
 
+@overload
+def scale_to_pga(motion: Record, target: float) -> Record: ...
+@overload
+def scale_to_pga(motion: GroundMotion, target: float) -> GroundMotion: ...
 def scale_to_pga(motion: GroundMotion, target: float) -> GroundMotion:
     """Copy of ``motion`` scaled so that its PGA equals ``target`` (m/s²).
 
@@ -102,6 +106,10 @@ def scale_to_pga(motion: GroundMotion, target: float) -> GroundMotion:
     return _scale(motion, target, peak_ground_acceleration(motion), "PGA")
 
 
+@overload
+def scale_to_pgv(motion: Record, target: float) -> Record: ...
+@overload
+def scale_to_pgv(motion: GroundMotion, target: float) -> GroundMotion: ...
 def scale_to_pgv(motion: GroundMotion, target: float) -> GroundMotion:
     """Copy of ``motion`` scaled so that its PGV equals ``target`` (m/s); exact ``pgv`` when available."""
     return _scale(motion, target, peak_ground_velocity(motion), "PGV")
@@ -112,7 +120,7 @@ class RecordSpecError(ValueError):
     """A record key of a scenario cannot be applied; the message names the key."""
 
 
-def _processed(record: Record, acc: np.ndarray, step: dict[str, object]) -> Record:
+def _processed(record: Record, acc: np.ndarray, step: Mapping[str, object]) -> Record:
     steps = [*record.metadata.get("processing", []), step]
     return record.replace(acc, processing=steps)
 
@@ -306,7 +314,7 @@ def record_from_spec(
     if azimuth_deg is None and (spec.second is not None or spec.component_azimuth_deg is not None):
         raise RecordSpecError(f"key '{key}.second': a vertical record has one component and no azimuth")
     m = prep(spec, key)
-    if spec.second is not None:
+    if spec.second is not None and azimuth_deg is not None:  # (None with a second component raised above)
         h2 = prep(spec.second, f"{key}.second")
         try:
             m = project_components(

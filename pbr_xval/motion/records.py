@@ -144,7 +144,7 @@ class Record(GroundMotion):
     @property
     def time(self) -> Arr:
         """(n,) float, s: sample times t0 + k dt."""
-        return self.t0 + self.dt * np.arange(self.npts)
+        return self.t0 + self.dt * np.arange(self.npts, dtype=np.float64)
 
     @property
     def duration(self) -> float:

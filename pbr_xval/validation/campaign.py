@@ -383,7 +383,7 @@ def read_general_csv(path: str | Path, specimen: int) -> Campaign:
         if not mf.is_file():
             raise CampaignError(f"{where}: motion file not found: {mf}")
         try:
-            rec = read_record(mf, **({} if mf.suffix.lower() == ".at2" else {"dt": dt, "units": units}))
+            rec = read_record(mf) if mf.suffix.lower() == ".at2" else read_record(mf, dt=dt, units=units)
         except (MotionFileError, ValueError) as exc:
             raise CampaignError(f"{where}: motion file {mf}: {exc}") from None
         if rec.t0 != 0.0:
