@@ -22,7 +22,15 @@ import numpy as np
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
 
-__all__ = ["COLLISION_CHOICES", "StderrCapture", "cache_dir", "collision_parts", "model_key", "write_obj"]
+__all__ = [
+    "COLLISION_CHOICES",
+    "StderrCapture",
+    "cache_dir",
+    "check_choices",
+    "collision_parts",
+    "model_key",
+    "write_obj",
+]
 
 
 class StderrCapture:
@@ -51,6 +59,19 @@ class StderrCapture:
 
 # ------------------------------------------------------------------ geometry
 COLLISION_CHOICES = ("auto", "primitive", "boxes", "hull", "coacd", "decimated", "mesh")
+
+
+def check_choices(engine: str, s: Mapping[str, Any], choices: Mapping[str, tuple[Any, ...]]) -> None:
+    """Raise :class:`~pbr_xval.engine.EngineSettingsError` for a setting outside its choices or a timestep ≤ 0."""
+    from pbr_xval.engine import EngineSettingsError
+
+    for key, allowed in choices.items():
+        if s[key] not in allowed:
+            raise EngineSettingsError(
+                f"engine {engine!r}: setting {key!r} = {s[key]!r}; expected one of {allowed}"
+            )
+    if not float(s["timestep"]) > 0:
+        raise EngineSettingsError(f"engine {engine!r}: timestep must be > 0 s, got {s['timestep']!r}")
 
 
 def model_key(scene: Scene, settings: Mapping[str, Any]) -> str:
@@ -85,6 +106,23 @@ def model_key(scene: Scene, settings: Mapping[str, Any]) -> str:
     feed([scene.pedestal, scene.collision, scene.mu_s, scene.mu_d, scene.restitution, scene.gravity])
     feed([scene.excitation.vertical is not None, dict(settings)])
     return h.hexdigest()
+
+
+_MODELS: dict[str, tuple[str, Any]] = {}
+
+
+def cached_model(engine: str, scene: Scene, settings: Mapping[str, Any], build: Any) -> Any:
+    """``build()``'s compiled model, reused while the scene geometry and settings stay the same.
+
+    One model per engine and worker process: a sweep over excitations of one scene (threshold
+    search, fragility map) compiles once; a different scene replaces it. ``build`` must return a
+    model the adapter does not mutate between runs (or resets at the start of each run).
+    """
+    key = model_key(scene, settings)
+    hit = _MODELS.get(engine)
+    if hit is None or hit[0] != key:
+        hit = _MODELS[engine] = (key, build())
+    return hit[1]
 
 
 def cache_dir() -> Path:

@@ -41,8 +41,22 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.engines._common import COLLISION_CHOICES, StderrCapture, cache_dir, collision_parts, write_obj
-from pbr_xval.stepping import GROUND_MODES, StepBlock, gravity_sequence, run_steps
+from pbr_xval.engines._common import (
+    COLLISION_CHOICES,
+    StderrCapture,
+    cache_dir,
+    check_choices,
+    collision_parts,
+    write_obj,
+)
+from pbr_xval.stepping import (
+    GROUND_MODES,
+    StepBlock,
+    StepperBase,
+    failed_trajectory,
+    gravity_sequence,
+    run_steps,
+)
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -51,7 +65,6 @@ __all__ = ["DartEngine"]
 
 _DETECTORS = ("fcl", "ode", "dart", "bullet")
 _LCP_SOLVERS = ("dantzig", "pgs", "nsgs", "fbf")
-_COLLISION = COLLISION_CHOICES
 #: substrings of DART's stderr lines that signal a failed LCP solve
 _LCP_FAILURE_NEEDLES = ("failed to find a solution",)
 
@@ -86,20 +99,23 @@ def _freejoint_velocity_is_world(dart: Any) -> bool:
     return bool(np.allclose(skel.getVelocities()[:3], body.getAngularVelocity(), rtol=0, atol=1e-12))
 
 
+def _shape_node(body: Any, shape: Any, rot: np.ndarray, pos: np.ndarray, mu: float, e: float) -> None:
+    """Attach ``shape`` to ``body`` at (rotation (3, 3), translation (3,) m), colliding with μ and e."""
+    sn = body.createShapeNode(shape)
+    sn.setRelativeRotation(rot)
+    sn.setRelativeTranslation(pos)
+    sn.createCollisionAspect()
+    da = sn.createDynamicsAspect()
+    da.setFrictionCoeff(mu)
+    da.setRestitutionCoeff(e)
+
+
 class DartEngine(EngineBase):
     """DART rigid-body adapter (Featherstone dynamics, boxed-LCP contacts); see the module docstring."""
 
     name: ClassVar[str] = "dart"
     requires: ClassVar[str | None] = "dartpy"
-    capabilities: ClassVar[Capabilities] = Capabilities(
-        dims=3,
-        shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),
-        sliding=True,
-        restitution=True,
-        vertical=True,
-        deterministic=True,
-        analytical=False,
-    )
+    capabilities: ClassVar[Capabilities] = Capabilities()  # every shape, sliding, restitution, vertical
     #: conformance check name -> reason (with the measured size)
     expected_failures: ClassVar[dict[str, str]] = {}
 
@@ -131,7 +147,7 @@ class DartEngine(EngineBase):
             "sleep_time": 0.5,  # s
         }
         engine_default = {
-            **common,
+            **faithful,
             # DART has no notion of a shaking base: the DART way (notes §2) is a ground body driven by
             # a joint with an ACCELERATION actuator. With DART's default sleeping on, the rock falls
             # asleep while settling and that pedestal does not wake it (it never rocks); in "inertial"
@@ -140,9 +156,6 @@ class DartEngine(EngineBase):
             "friction": 1.0,  # DynamicsAspect default friction coefficient, on each shape
             "restitution": 0.0,  # DynamicsAspect default restitution, on each shape
             "sleep": True,  # DART deactivation is on by default
-            "sleep_linear_threshold": 0.01,
-            "sleep_angular_threshold": 0.05,
-            "sleep_time": 0.5,
         }
         return {"faithful": faithful, "engine-default": engine_default}
 
@@ -158,16 +171,12 @@ class DartEngine(EngineBase):
                 f"engine 'dart': setting {key!r} = {s[key]!r}; expected one of {allowed}"
             )
 
-        if s["ground_motion"] not in GROUND_MODES:
-            raise bad("ground_motion", GROUND_MODES)
-        if s["collision_detector"] not in _DETECTORS:
-            raise bad("collision_detector", _DETECTORS)
-        if s["lcp_solver"] not in _LCP_SOLVERS:
-            raise bad("lcp_solver", _LCP_SOLVERS)
-        if s["collision"] not in _COLLISION:
-            raise bad("collision", _COLLISION)
-        if not (float(s["timestep"]) > 0):
-            raise EngineSettingsError(f"engine 'dart': timestep must be > 0, got {s['timestep']!r}")
+        choices = {
+            "ground_motion": GROUND_MODES,
+            "collision_detector": _DETECTORS,
+            "lcp_solver": _LCP_SOLVERS,
+        }
+        check_choices(self.name, s, choices | {"collision": COLLISION_CHOICES})
         for k in ("friction", "restitution"):
             if s[k] != "scene" and not isinstance(s[k], int | float):
                 raise bad(k, "'scene' or a number")
@@ -261,13 +270,7 @@ class DartEngine(EngineBase):
             fj, body = rskel.createFreeJointAndBodyNodePair()
             shapes, model = self._rock_shapes(dart, scene, s)
             for shape, rot, pos in shapes:
-                sn = body.createShapeNode(shape)
-                sn.setRelativeRotation(rot)
-                sn.setRelativeTranslation(pos)
-                sn.createCollisionAspect()
-                da = sn.createDynamicsAspect()
-                da.setFrictionCoeff(mu_rock)
-                da.setRestitutionCoeff(e_rock)
+                _shape_node(body, shape, rot, pos, mu_rock, e_rock)
             body.setInertia(D.Inertia(mass, np.zeros(3), inertia))
 
             # ---- pedestal
@@ -281,22 +284,12 @@ class DartEngine(EngineBase):
             else:
                 pj, pbody = pskel.createWeldJointAndBodyNodePair()
             pshape, poff, pdesc = self._pedestal_shape(dart, scene, s)
-            psn = pbody.createShapeNode(pshape)
-            psn.setRelativeTranslation(poff)
-            psn.createCollisionAspect()
-            pda = psn.createDynamicsAspect()
-            pda.setFrictionCoeff(mu_ped)
-            pda.setRestitutionCoeff(e_ped)
+            _shape_node(pbody, pshape, np.eye(3), poff, mu_ped, e_ped)
 
             world.addSkeleton(rskel)
             world.addSkeleton(pskel)
-            det = {
-                "fcl": dart.collision.FCLCollisionDetector,
-                "ode": dart.collision.OdeCollisionDetector,
-                "dart": dart.collision.DARTCollisionDetector,
-                "bullet": dart.collision.BulletCollisionDetector,
-            }[s["collision_detector"]]()
-            world.setCollisionDetector(det)
+            det = {"fcl": "FCL", "ode": "Ode", "dart": "DART", "bullet": "Bullet"}[s["collision_detector"]]
+            world.setCollisionDetector(getattr(dart.collision, f"{det}CollisionDetector")())
             cs = world.getConstraintSolver()
             cs.setSplitImpulseEnabled(bool(s["split_impulse"]))
             pgs_opt = dart.constraint.PgsBoxedLcpSolverOption()
@@ -316,13 +309,11 @@ class DartEngine(EngineBase):
                     cs.setBoxedLcpSolver(dart.constraint.FbfFrictionSolver())
 
             fj.setTransform(dart.math.Isometry3(np.eye(3), com0))  # the rest pose; run_steps tilts
-        except NotApplicable:
-            raise
-        except EngineSettingsError:
+        except (NotApplicable, EngineSettingsError):
             raise
         except Exception as exc:  # engine error while building: a failed run, not an exception
-            return Trajectory.failed(
-                self.name, f"dart: building the model failed: {exc!r}", settings=s, versions=versions
+            return failed_trajectory(
+                self.name, scene, f"dart: building the model failed: {exc!r}", s, versions
             )
 
         diag.update(
@@ -352,7 +343,7 @@ class DartEngine(EngineBase):
         return rec.trajectory(self.name, s, versions, diag)
 
 
-class _DartStepper:
+class _DartStepper(StepperBase):
     """DART side of :func:`pbr_xval.stepping.run_steps` (one World per run)."""
 
     def __init__(
@@ -361,7 +352,6 @@ class _DartStepper:
         self.dart, self.world, self.scene, self.fj, self.body = dart, world, scene, fj, body
         self.rskel, self.pj, self.moving = rskel, pj, moving
         self.dt = float(world.getTimeStep())
-        self.rest_rotation = np.eye(3)
 
     def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
         self.fj.setTransform(self.dart.math.Isometry3(rot, com))
@@ -406,9 +396,6 @@ class _DartStepper:
         self.fast_omega = _freejoint_velocity_is_world(self.dart)
         self.last: np.ndarray | None = None
 
-    def sample(self, block: StepBlock) -> None:
-        raise NotImplementedError("dart records from the first step")
-
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
         world, body, pj, moving, acc, grav = self.world, self.body, self.pj, self.moving, self.acc, self.grav
         rskel, fast = self.rskel, self.fast_omega
@@ -433,6 +420,3 @@ class _DartStepper:
             ncon[i] = len(contacts)
             pen[i] = max([c.penetrationDepth for c in contacts], default=0.0)
             block.n = i + 1
-
-    def end(self) -> None:
-        pass

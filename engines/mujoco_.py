@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from pbr_xval import stepping
 from pbr_xval.engine import (
     Capabilities,
     EngineBase,
@@ -34,8 +35,8 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.engines._common import COLLISION_CHOICES, collision_parts, model_key
-from pbr_xval.stepping import GROUND_MODES, StepBlock, fail, gravity_sequence, matrix_to_quat, run_steps
+from pbr_xval.engines._common import COLLISION_CHOICES, cached_model, check_choices, collision_parts
+from pbr_xval.stepping import GROUND_MODES, StepBlock, StepperBase, fail, failed_trajectory, run_steps
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -45,7 +46,6 @@ __all__ = ["MuJoCoEngine"]
 _INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast", "discrete")
 _SOLVERS = ("PGS", "CG", "Newton")
 _CONES = ("pyramidal", "elliptic")
-_COLLISIONS = COLLISION_CHOICES
 
 
 def _import_mujoco() -> Any:
@@ -53,7 +53,7 @@ def _import_mujoco() -> Any:
 
 
 def _mat_to_quat(r: np.ndarray) -> list[float]:
-    return [float(x) for x in matrix_to_quat(r)]
+    return [float(x) for x in stepping.matrix_to_quat(r)]
 
 
 def _dampratio_from_restitution(e: float) -> float:
@@ -74,81 +74,54 @@ class MuJoCoEngine(EngineBase):
 
     name: ClassVar[str] = "mujoco"
     requires: ClassVar[str | None] = "mujoco"
-    capabilities: ClassVar[Capabilities] = Capabilities(
-        dims=3,
-        shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),
-        sliding=True,
-        # MuJoCo has no restitution coefficient: the faithful profile maps it to the contact
-        # damping ratio (linear spring-damper formula), which is approximate and not validated.
-        restitution=False,
-        vertical=True,
-        deterministic=True,
-        analytical=False,
-    )
+    # MuJoCo has no restitution coefficient: the faithful profile maps it to the contact damping
+    # ratio (linear spring-damper formula), which is approximate and not validated.
+    capabilities: ClassVar[Capabilities] = Capabilities(restitution=False)
     #: conformance check name -> reason (none measured to fail in the faithful profile)
     expected_failures: ClassVar[dict[str, str]] = {}
 
     def profiles(self) -> dict[str, dict[str, Any]]:
-        return {
-            # Hard contact (notes §2.3, §6.3): reproduces 5.637–5.638 and r = 0.850.
-            "faithful": {
-                "timestep": 1e-3,
-                "ground_motion": "inertial",  # or "moving_pedestal"
-                "pedestal_mass": 1e5,  # kg, moving_pedestal only
-                "plane_box_half_extents": [50.0, 50.0, 1.0],  # m, a plane pedestal that must move
-                "settle": True,  # settle for scene.settle_time under gravity when starting at rest
-                "integrator": "implicitfast",
-                "solver": "Newton",
-                "iterations": 100,
-                "ls_iterations": 50,
-                "tolerance": 1e-8,
-                "noslip_iterations": 0,
-                "cone": "elliptic",
-                "impratio": 1.0,
-                "condim": 3,
-                # [timeconst s, dampratio]; None -> timeconst 2·timestep (the refsafe minimum),
-                # dampratio from scene.restitution (1 for restitution 0)
-                "solref": [None, None],
-                "solimp": [0.999, 0.9999, 0.001, 0.5, 2.0],
-                # [sliding, torsional, rolling]; None sliding -> scene.mu_s (MuJoCo has one μ and
-                # combines geoms by max: both geoms get it, so the pair has exactly scene.mu_s)
-                "friction": [None, 0.0, 0.0],
-                "margin": 0.0,
-                "multiccd": True,
-                "refsafe": True,
-                "sleep": False,
-                "collision": "auto",  # auto: the scene compiler's choice (scenario [model]) | primitive | boxes | hull | coacd | decimated
-                "coacd_threshold": 0.05,
-                "coacd_seed": 0,
-            },
-            # MuJoCo's own defaults written out (mjOption / mjsGeom defaults of MuJoCo 4.0).
-            "engine-default": {
-                "timestep": 0.002,
-                "ground_motion": "inertial",
-                "pedestal_mass": 1e5,
-                "plane_box_half_extents": [50.0, 50.0, 1.0],
-                "settle": True,
-                "integrator": "Euler",
-                "solver": "Newton",
-                "iterations": 100,
-                "ls_iterations": 50,
-                "tolerance": 1e-8,
-                "noslip_iterations": 0,
-                "cone": "pyramidal",
-                "impratio": 1.0,
-                "condim": 3,
-                "solref": [0.02, 1.0],
-                "solimp": [0.9, 0.95, 0.001, 0.5, 2.0],
-                "friction": [1.0, 0.005, 0.0001],  # MuJoCo's geom default, not the scene's μ
-                "margin": 0.0,
-                "multiccd": True,
-                "refsafe": True,
-                "sleep": False,
-                "collision": "auto",
-                "coacd_threshold": 0.05,
-                "coacd_seed": 0,
-            },
+        # Hard contact (notes §2.3, §6.3): reproduces 5.637–5.638 and r = 0.850.
+        faithful = {
+            "timestep": 1e-3,
+            "ground_motion": "inertial",  # or "moving_pedestal"
+            "pedestal_mass": 1e5,  # kg, moving_pedestal only
+            "plane_box_half_extents": [50.0, 50.0, 1.0],  # m, a plane pedestal that must move
+            "settle": True,  # settle for scene.settle_time under gravity when starting at rest
+            "integrator": "implicitfast",
+            "solver": "Newton",
+            "iterations": 100,
+            "ls_iterations": 50,
+            "tolerance": 1e-8,
+            "noslip_iterations": 0,
+            "cone": "elliptic",
+            "impratio": 1.0,
+            "condim": 3,
+            # [timeconst s, dampratio]; None -> timeconst 2·timestep (the refsafe minimum),
+            # dampratio from scene.restitution (1 for restitution 0)
+            "solref": [None, None],
+            "solimp": [0.999, 0.9999, 0.001, 0.5, 2.0],
+            # [sliding, torsional, rolling]; None sliding -> scene.mu_s (MuJoCo has one μ and
+            # combines geoms by max: both geoms get it, so the pair has exactly scene.mu_s)
+            "friction": [None, 0.0, 0.0],
+            "margin": 0.0,
+            "multiccd": True,
+            "refsafe": True,
+            "sleep": False,
+            "collision": "auto",  # auto: the scene compiler's choice (scenario [model]) | primitive | boxes | hull | coacd | decimated
+            "coacd_threshold": 0.05,
+            "coacd_seed": 0,
         }
+        # MuJoCo's own defaults (mjOption / mjsGeom defaults of MuJoCo 4.0): only what differs
+        default = {
+            "timestep": 0.002,
+            "integrator": "Euler",
+            "cone": "pyramidal",
+            "solref": [0.02, 1.0],
+            "solimp": [0.9, 0.95, 0.001, 0.5, 2.0],
+            "friction": [1.0, 0.005, 0.0001],  # MuJoCo's geom default, not the scene's μ
+        }
+        return {"faithful": faithful, "engine-default": faithful | default}
 
     def versions(self) -> dict[str, str]:
         from pbr_xval.version import __version__
@@ -158,24 +131,12 @@ class MuJoCoEngine(EngineBase):
 
     # ------------------------------------------------------------------ checks
     def _check(self, s: dict[str, Any]) -> None:
-        choices = {
-            "ground_motion": GROUND_MODES,
-            "integrator": _INTEGRATORS,
-            "solver": _SOLVERS,
-            "cone": _CONES,
-            "collision": _COLLISIONS,
-        }
-        for key, allowed in choices.items():
-            if s[key] not in allowed:
-                raise EngineSettingsError(
-                    f"engine 'mujoco': setting {key!r} = {s[key]!r}; expected one of {allowed}"
-                )
-        if not (float(s["timestep"]) > 0):
-            raise EngineSettingsError(f"engine 'mujoco': timestep must be > 0, got {s['timestep']!r}")
+        choices = {"ground_motion": GROUND_MODES, "integrator": _INTEGRATORS, "solver": _SOLVERS}
+        check_choices(
+            self.name, s, choices | {"cone": _CONES, "collision": COLLISION_CHOICES, "condim": (1, 3, 4, 6)}
+        )
         if len(s["solref"]) != 2 or len(s["solimp"]) != 5 or len(s["friction"]) != 3:
             raise EngineSettingsError("engine 'mujoco': solref needs 2 values, solimp 5, friction 3")
-        if s["condim"] not in (1, 3, 4, 6):
-            raise EngineSettingsError(f"engine 'mujoco': condim must be 1, 3, 4 or 6, got {s['condim']!r}")
 
     # ------------------------------------------------------------------ model
     def _build(self, mujoco: Any, scene: Scene, s: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
@@ -198,16 +159,13 @@ class MuJoCoEngine(EngineBase):
         opt.tolerance = float(s["tolerance"])
         opt.noslip_iterations = int(s["noslip_iterations"])
         opt.impratio = float(s["impratio"])
-        dis = int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)  # a blow-up must show as NaN, not a silent reset
-        if not s["multiccd"]:
-            dis |= int(mujoco.mjtDisableBit.mjDSBL_MULTICCD)
-        if not s["refsafe"]:
-            dis |= int(mujoco.mjtDisableBit.mjDSBL_REFSAFE)
+        bits = mujoco.mjtDisableBit
+        dis = int(bits.mjDSBL_AUTORESET)  # a blow-up must show as NaN, not a silent reset
+        dis |= (0 if s["multiccd"] else int(bits.mjDSBL_MULTICCD)) | (
+            0 if s["refsafe"] else int(bits.mjDSBL_REFSAFE)
+        )
         opt.disableflags = dis
-        en = 0
-        if s["sleep"]:
-            en |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
-        opt.enableflags = en
+        opt.enableflags = int(mujoco.mjtEnableBit.mjENBL_SLEEP) if s["sleep"] else 0
 
         tc, dr = s["solref"]
         restitution_model = "dampratio given"
@@ -224,11 +182,7 @@ class MuJoCoEngine(EngineBase):
         margin = float(s["margin"])
 
         def contact(g: Any) -> None:
-            g.friction = friction
-            g.solref = solref
-            g.solimp = solimp
-            g.condim = condim
-            g.margin = margin
+            g.friction, g.solref, g.solimp, g.condim, g.margin = friction, solref, solimp, condim, margin
 
         # ---- pedestal
         ped = scene.pedestal
@@ -279,28 +233,22 @@ class MuJoCoEngine(EngineBase):
 
         kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         rq = _mat_to_quat(np.asarray(rock.rotation, dtype=float))
-        if kind == "primitive":
-            assert rock.primitive is not None  # collision_parts gives this kind only when it exists
-            centre = rock.mesh.bounds.mean(axis=0)
-            g = body.add_geom(
-                type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=[float(x) for x in rock.primitive["half_extents"]],
-                pos=(centre - com).tolist(),
-                quat=rq,
-            )
-            contact(g)
-            info.update(collision="box primitive", parts=1)
-        elif kind == "boxes":
-            assert rock.box_parts is not None  # collision_parts gives this kind only when it exists
-            for c, h in rock.box_parts:
-                g = body.add_geom(
-                    type=mujoco.mjtGeom.mjGEOM_BOX,
-                    size=[float(x) for x in h],
-                    pos=(np.asarray(c, dtype=float) - com).tolist(),
-                    quat=rq,
+        if kind in ("primitive", "boxes"):
+            if kind == "primitive":  # collision_parts gives these kinds only when they exist
+                assert rock.primitive is not None
+                boxes = [(rock.mesh.bounds.mean(axis=0), rock.primitive["half_extents"])]
+                info.update(collision="box primitive", parts=1)
+            else:
+                assert rock.box_parts is not None
+                boxes = list(rock.box_parts)
+                info.update(collision="compound of box geoms", parts=len(boxes))
+            for c, h in boxes:
+                pos = (np.asarray(c, dtype=float) - com).tolist()
+                contact(
+                    body.add_geom(
+                        type=mujoco.mjtGeom.mjGEOM_BOX, size=[float(x) for x in h], pos=pos, quat=rq
+                    )
                 )
-                contact(g)
-            info.update(collision="compound of box geoms", parts=len(rock.box_parts))
         else:
             # every MuJoCo mesh geom collides as its convex hull
             info.update(collision=kind, parts=len(parts))
@@ -328,25 +276,22 @@ class MuJoCoEngine(EngineBase):
             raise NotApplicable(f"mujoco: rock shape {scene.rock.shape!r} is not supported")
         versions = self.versions()
         try:
-            m, info = self._model(mujoco, scene, s)
+            m, info = cached_model(self.name, scene, s, lambda: self._build(mujoco, scene, s))
+            info = dict(info)
         except NotApplicable:
             raise
         except Exception as exc:  # model compilation errors (e.g. a degenerate mesh part)
-            return Trajectory.failed(
-                self.name,
-                f"mujoco: model compilation failed: {exc}",
-                settings=s,
-                versions=versions,
-                scenario_hash=scene.scenario_hash,
-                scene_info=scene.info(),
-                excitation_axis=scene.direction.copy(),
-            )
+            msg = f"mujoco: model compilation failed: {exc}"
+            return failed_trajectory(self.name, scene, msg, s, versions)
         st = _MjStepper(mujoco, m, scene, s, info)
         rec, diag = run_steps(st, scene, float(m.opt.timestep), settle=bool(s["settle"]), name=self.name)
-        warnings = {}
-        for w in mujoco.mjtWarning.__members__.values():
-            if int(w) < int(mujoco.mjtWarning.mjNWARNING) and st.d.warning[int(w)].number:
-                warnings[w.name] = int(st.d.warning[int(w)].number)
+        nw = int(mujoco.mjtWarning.mjNWARNING)
+        counts = {
+            w.name: int(st.d.warning[int(w)].number)
+            for w in mujoco.mjtWarning.__members__.values()
+            if int(w) < nw
+        }
+        warnings = {k: v for k, v in counts.items() if v}
         diag.update(ground_motion=s["ground_motion"], mujoco_warnings=warnings)
         if warnings.get("mjWARN_BADQACC"):
             n = warnings["mjWARN_BADQACC"]
@@ -354,21 +299,8 @@ class MuJoCoEngine(EngineBase):
         diag.update({f"model_{k}": v for k, v in info.items()})
         return rec.trajectory(self.name, s, versions, diag)
 
-    def _model(self, mujoco: Any, scene: Scene, s: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-        """The compiled model, cached by scene geometry and settings (one compile per worker)."""
-        key = model_key(scene, s)
-        hit = _MODEL_CACHE.get(key)
-        if hit is None:
-            hit = self._build(mujoco, scene, s)
-            _MODEL_CACHE.clear()  # one model per worker: a sweep reuses it, a new scene replaces it
-            _MODEL_CACHE[key] = hit
-        return hit[0], dict(hit[1])
 
-
-_MODEL_CACHE: dict[str, tuple[Any, dict[str, Any]]] = {}
-
-
-class _MjStepper:
+class _MjStepper(StepperBase):
     """MuJoCo side of :func:`pbr_xval.stepping.run_steps` (one MjData per run)."""
 
     def __init__(self, mujoco: Any, m: Any, scene: Scene, s: dict[str, Any], info: dict[str, Any]) -> None:
@@ -376,7 +308,6 @@ class _MjStepper:
         self.d = d = mujoco.MjData(m)
         self.dt = float(m.opt.timestep)
         self.moving = bool(info["moving"])
-        self.rest_rotation = np.eye(3)
         rock_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "rock")
         jr = m.body_jntadr[rock_id]
         qa, va = int(m.jnt_qposadr[jr]), int(m.jnt_dofadr[jr])
@@ -412,11 +343,12 @@ class _MjStepper:
     def state(self) -> tuple[np.ndarray, np.ndarray, float]:
         mat9 = np.zeros(9)
         self.mj.mju_quat2Mat(mat9, self.quat)
-        size = float(np.ptp(self.scene.rock.mesh.vertices))
-        speed = float(np.linalg.norm(self.vlin)) + float(np.linalg.norm(self.wbody)) * size
-        if not np.all(np.isfinite(self.d.qpos)):
-            speed = math.inf
-        return self.pos.copy(), mat9.reshape(3, 3), speed
+        finite = bool(np.all(np.isfinite(self.d.qpos)))
+        return (
+            self.pos.copy(),
+            mat9.reshape(3, 3),
+            self.speed(self.vlin, self.wbody, self.scene) if finite else math.inf,
+        )
 
     def begin(self, n: int) -> None:
         scene, dt, npj = self.scene, self.dt, self.npj
@@ -429,44 +361,36 @@ class _MjStepper:
             self.frc = float(self.s["pedestal_mass"]) * acc_mid[:, :npj]
             self.vlin += scene.excitation.velocity(0.0)  # the rock moves with the pedestal at t = 0
         else:
-            self.grav_seq = gravity_sequence(scene, tk + 0.5 * dt)
-
-    def sample(self, block: StepBlock) -> None:
-        raise NotImplementedError("mujoco records from the first step")
+            self.grav_seq = stepping.gravity_sequence(scene, tk + 0.5 * dt).tolist()
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
-        mj, m, d = self.mj, self.m, self.d
+        mj, m, d, npj = self.mj, self.m, self.d, self.npj
         step, quat2mat = mj.mj_step, mj.mju_quat2Mat
         pos, quat, wbody = self.pos, self.quat, self.wbody
         com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        if self.moving:
-            disp, vel, frc, pqs, pvs, pfs = self.disp, self.vel, self.frc, self.pqs, self.pvs, self.pfs
+        moving, grav, gseq = self.moving, m.opt.gravity, getattr(self, "grav_seq", None)
+        i = 0
+        try:
             for i, k in enumerate(range(k0, k1)):
-                pqs[:] = disp[k]
-                pvs[:] = vel[k]
-                pfs[:] = frc[k]
+                if moving:
+                    self.pqs[:] = self.disp[k]
+                    self.pvs[:] = self.vel[k]
+                    self.pfs[:] = self.frc[k]
+                else:
+                    grav[0], grav[1], grav[2] = gseq[k]
                 step(m, d)
                 com[i] = pos
-                com[i, : self.npj] -= pqs
+                if moving:
+                    com[i, :npj] -= self.pqs
                 quat2mat(rot[i], quat)
                 om[i] = wbody
                 nc = ncon[i] = d.ncon
                 pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
-                block.n = i + 1
-        else:
-            grav, gseq = m.opt.gravity, self.grav_seq
-            for i, k in enumerate(range(k0, k1)):
-                grav[:] = gseq[k]
-                step(m, d)
-                com[i] = pos
-                quat2mat(rot[i], quat)
-                om[i] = wbody
-                nc = ncon[i] = d.ncon
-                pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
-                block.n = i + 1
-        # ω in the pedestal frame = R ω_body, one stacked product per block
-        n = block.n
-        om[:n] = np.matmul(rot[:n].reshape(n, 3, 3), om[:n, :, None])[:, :, 0]
+            i = k1 - k0
+        finally:
+            block.n = n = i  # rows complete (a step that raised is not one)
+            # ω in the pedestal frame = R ω_body, one stacked product per block
+            om[:n] = np.matmul(rot[:n].reshape(n, 3, 3), om[:n, :, None])[:, :, 0]
 
     def end(self) -> None:
         if self.moving:

@@ -32,16 +32,22 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.stepping import GROUND_MODES, StepBlock, gravity_sequence, matrix_to_quat, run_steps
+from pbr_xval.stepping import (
+    GROUND_MODES,
+    StepBlock,
+    StepperBase,
+    gravity_sequence,
+    matrix_to_quat,
+    run_steps,
+)
 
-from ._common import COLLISION_CHOICES, collision_parts, write_obj
+from ._common import COLLISION_CHOICES, check_choices, collision_parts, write_obj
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
 
 __all__ = ["PyBulletEngine"]
 
-_COLLISION = COLLISION_CHOICES
 _SOLVERS = ("si", "pgs", "dantzig")
 #: Bullet clamps the combined (product) friction of a contact pair at this value (btManifoldResult)
 _BULLET_MAX_FRICTION = 10.0
@@ -77,15 +83,7 @@ class PyBulletEngine(EngineBase):
 
     name: ClassVar[str] = "pybullet"
     requires: ClassVar[str | None] = "pybullet"
-    capabilities: ClassVar[Capabilities] = Capabilities(
-        dims=3,
-        shapes=frozenset({"box", "notched_block", "curved_base", "mesh"}),
-        sliding=True,
-        restitution=True,
-        vertical=True,
-        deterministic=True,
-        analytical=False,
-    )
+    capabilities: ClassVar[Capabilities] = Capabilities()  # every shape, sliding, restitution, vertical
     #: conformance check → reason (measured; notes §4)
     expected_failures: ClassVar[dict[str, str]] = {
         "notched_rebound": (
@@ -169,16 +167,8 @@ class PyBulletEngine(EngineBase):
                 f"engine 'pybullet': setting {key!r} = {s[key]!r}; expected {expected}"
             )
 
-        if s["ground_motion"] not in GROUND_MODES:
-            raise bad("ground_motion", " or ".join(GROUND_MODES))
-        if s["collision"] not in _COLLISION:
-            raise bad("collision", ", ".join(_COLLISION))
-        if s["solver_type"] not in _SOLVERS:
-            raise bad("solver_type", ", ".join(_SOLVERS))
-        if s["plane_pedestal"] not in ("plane", "box"):
-            raise bad("plane_pedestal", "plane or box")
-        if not float(s["timestep"]) > 0:
-            raise bad("timestep", "a positive number of seconds")
+        choices = {"ground_motion": GROUND_MODES, "collision": COLLISION_CHOICES, "solver_type": _SOLVERS}
+        check_choices(self.name, s, choices | {"plane_pedestal": ("plane", "box")})
         for key in ("friction", "restitution"):
             if s[key] != "scene" and not isinstance(s[key], int | float):
                 raise bad(key, "'scene' or a number")
@@ -403,7 +393,7 @@ class PyBulletEngine(EngineBase):
         return traj
 
 
-class _PbStepper:
+class _PbStepper(StepperBase):
     """PyBullet side of :func:`pbr_xval.stepping.run_steps` (one physics client per run)."""
 
     def __init__(
@@ -479,26 +469,20 @@ class _PbStepper:
         p, cid, ped, axes = self.p, self.cid, self.ped, self.axes
         step, read = p.stepSimulation, self._read
         com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        if self.moving:
-            reset_joint, push, world = p.resetJointState, p.applyExternalForce, p.WORLD_FRAME
-            for i, k in enumerate(range(k0, k1)):
+        moving, setg, drive = self.moving, p.setGravity, getattr(self, "drive", None)
+        reset_joint, push, world = p.resetJointState, p.applyExternalForce, p.WORLD_FRAME
+        for i, k in enumerate(range(k0, k1)):
+            if moving:
                 dk, vk = self.disp_l[k], self.vel[k]
                 for j in range(axes):
                     reset_joint(ped, j, dk[j], vk[j], physicsClientId=cid)
                 if self.vertical:
                     push(ped, axes - 1, self.lift, self.dpos_l[k], world, physicsClientId=cid)
-                step(physicsClientId=cid)
-                read(i, com, rot, om, ncon, pen)
-                block.n = i + 1
-                com[i] -= self.dpos[k + 1]
-        else:
-            setg, drive = p.setGravity, self.drive
-            for i, k in enumerate(range(k0, k1)):
+            else:
                 gx, gy, gz = drive[k]
                 setg(gx, gy, gz, physicsClientId=cid)
-                step(physicsClientId=cid)
-                read(i, com, rot, om, ncon, pen)
-                block.n = i + 1
-
-    def end(self) -> None:
-        pass
+            step(physicsClientId=cid)
+            read(i, com, rot, om, ncon, pen)
+            if moving:
+                com[i] -= self.dpos[k + 1]
+            block.n = i + 1

@@ -21,6 +21,7 @@ be missed, and the result is bit-identical to calling :meth:`Recorder.record` af
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
@@ -38,7 +39,9 @@ __all__ = [
     "Recorder",
     "StepBlock",
     "Stepper",
+    "StepperBase",
     "fail",
+    "failed_trajectory",
     "gravity_sequence",
     "initial_pose",
     "matrices_to_quats",
@@ -370,20 +373,24 @@ class Recorder:
             self._past = False
             self._outward = bool(cos[j - 1] <= (cos[j - 2] if j - 2 >= i else self._prev_cos))
             self._prev_cos = float(cos[j - 1])
-        eps = self._eps_t
-        tt = t[i:j]
-        k = i
-        while True:
-            k = i + int(np.searchsorted(tt, self._next_out - eps, side="left"))
-            if k >= j:
+        eps, out_dt, nxt = self._eps_t, self._out_dt, self._next_out
+        tl = t[i:j].tolist()
+        idx: list[int] = []
+        k = 0
+        while True:  # one pass per sample, not per step
+            k = bisect.bisect_left(tl, nxt - eps, k)
+            if k >= len(tl):
                 break
-            tk = float(t[k])
-            self.t.append(tk)
-            self.com.append(com[k].tolist())
-            self.rot.append(rot[k].tolist())
-            self.omega.append(omega[k].tolist())
-            while self._next_out <= tk + eps:
-                self._next_out += self._out_dt
+            idx.append(i + k)
+            tk = tl[k]
+            while nxt <= tk + eps:
+                nxt += out_dt
+        self._next_out = nxt
+        if idx:
+            self.t.extend(t[idx].tolist())
+            self.com.extend(com[idx].tolist())
+            self.rot.extend(rot[idx].tolist())
+            self.omega.extend(omega[idx].tolist())
 
     def _decide(self, t: float, rule: str) -> bool:
         """Record the physical toppling decision at ``t`` (s); returns whether to stop."""
@@ -577,6 +584,36 @@ class Stepper(Protocol):
 
     def end(self) -> None:
         """Remove the drive (e.g. restore gravity)."""
+
+
+class StepperBase:
+    """Defaults for a :class:`Stepper`: rest pose along the scene axes, no t = 0 sample, no drive to remove."""
+
+    rest_rotation: np.ndarray = np.eye(3)
+
+    def sample(self, block: StepBlock) -> None:
+        raise NotImplementedError(f"{type(self).__name__} records from the first step (sample_start=False)")
+
+    def end(self) -> None:
+        return None
+
+    @staticmethod
+    def speed(v: Any, w: Any, scene: Scene) -> float:
+        """Speed bound |v| + |ω|·size (m/s) from COM velocity (3,) m/s and ω (3,) rad/s."""
+        return float(np.linalg.norm(v)) + float(np.linalg.norm(w)) * float(np.ptp(scene.rock.mesh.vertices))
+
+
+def failed_trajectory(engine: str, scene: Scene, message: str, settings: Any, versions: Any) -> Trajectory:
+    """An empty failed :class:`Trajectory` for a model that could not be built (with the scene's provenance)."""
+    return Trajectory.failed(
+        engine,
+        message,
+        settings=settings,
+        versions=versions,
+        scenario_hash=scene.scenario_hash,
+        scene_info=scene.info(),
+        excitation_axis=scene.direction.copy(),
+    )
 
 
 def run_steps(
