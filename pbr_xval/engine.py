@@ -93,6 +93,7 @@ class Capabilities:
     analytical: bool = False
 
     def to_dict(self) -> dict[str, Any]:
+        """The tags as plain JSON values (``shapes`` as a sorted list)."""
         d = dataclasses.asdict(self)
         d["shapes"] = sorted(self.shapes)
         return d
@@ -112,6 +113,7 @@ class Event:
     data: Mapping[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
+        """``{"kind", "t" (s), **data}`` as plain JSON values (:func:`pbr_xval.jsonio.jsonable`)."""
         return {"kind": self.kind, "t": float(self.t), **{k: _jsonable(v) for k, v in self.data.items()}}
 
 
@@ -202,6 +204,7 @@ class Trajectory:
     # ------------------------------------------------------------------ derived
     @property
     def ok(self) -> bool:
+        """True if the run completed (``status`` is :attr:`RunStatus.OK`), toppled or not."""
         return self.status == RunStatus.OK
 
     @property
@@ -211,12 +214,14 @@ class Trajectory:
 
     @property
     def toppled_at(self) -> float | None:
+        """Time of the ``toppled`` event, s from the start of the excitation; None if it stood."""
         for e in self.events:
             if e.kind == "toppled":
                 return e.t
         return None
 
     def impacts(self) -> list[Event]:
+        """The ``impact`` events, in time order (``t`` in s; ``data`` e.g. the velocity ratio)."""
         return [e for e in self.events if e.kind == "impact"]
 
     @property
@@ -403,13 +408,43 @@ class Engine(Protocol):
     name: ClassVar[str]
     capabilities: ClassVar[Capabilities]
 
-    def default_settings(self) -> dict[str, Any]: ...
+    def default_settings(self) -> dict[str, Any]:
+        """The complete settings of the default profile (SI units: ``timestep`` in s, …)."""
+        ...
 
-    def profiles(self) -> dict[str, dict[str, Any]]: ...
+    def profiles(self) -> dict[str, dict[str, Any]]:
+        """Profile name -> complete settings dictionary (e.g. ``faithful``, ``engine-default``)."""
+        ...
 
-    def versions(self) -> dict[str, str]: ...
+    def versions(self) -> dict[str, str]:
+        """Package name -> version of everything the engine's results depend on (provenance)."""
+        ...
 
-    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory: ...
+    def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
+        """Simulate a compiled scene.
+
+        Parameters
+        ----------
+        scene : Scene
+            The reduced model in SI units, pedestal frame (z up, surface at z = 0).
+        settings : mapping, optional
+            A profile name (``"profile"``) and overrides of its keys; unknown keys are an error.
+
+        Returns
+        -------
+        Trajectory
+            Sampled every ``scene.output_dt`` s: ``t`` (n,) s, ``com`` (n, 3) m, ``quat`` (n, 4),
+            ``omega`` (n, 3) rad/s, events; a numerical failure is a failed trajectory
+            (``status = "failed"``), never an exception.
+
+        Raises
+        ------
+        NotApplicable
+            The engine cannot represent the scene.
+        EngineSettingsError
+            A setting is unknown or out of range.
+        """
+        ...
 
 
 class EngineBase:
@@ -423,12 +458,15 @@ class EngineBase:
     default_profile: ClassVar[str] = "faithful"
 
     def profiles(self) -> dict[str, dict[str, Any]]:  # pragma: no cover - abstract
+        """Profile name -> complete settings dictionary; every adapter defines it."""
         raise NotImplementedError
 
     def default_settings(self) -> dict[str, Any]:
+        """A copy of the ``default_profile`` settings."""
         return dict(self.profiles()[self.default_profile])
 
     def versions(self) -> dict[str, str]:
+        """``{"pbr_xval": version}``; adapters add their engine package's version."""
         return {"pbr_xval": _pkg_version("pbr-xval")}
 
     def resolve_settings(self, settings: Mapping[str, Any] | None) -> dict[str, Any]:

@@ -70,6 +70,8 @@ Vec3 = Annotated[list[Finite], Field(min_length=3, max_length=3)]
 
 
 class Strict(BaseModel):
+    """Base of every scenario table: unknown keys are errors, assignments are validated."""
+
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
 
 
@@ -89,6 +91,8 @@ class _MassSpec(Strict):
 
 
 class BoxRock(_MassSpec):
+    """``[rock] shape = "box"``: a rectangular block, half extents (3,) m, density kg/m³ or mass kg."""
+
     shape: Literal["box"]
     half_extents: Vec3Pos = Field(description="half sizes along x, y, z, m")
 
@@ -131,6 +135,8 @@ class CurvedBaseRock(_MassSpec):
 
 
 class MeshRock(_MassSpec):
+    """``[rock] shape = "mesh"``: a closed mesh file in ``units``, put at rest in ``pose``."""
+
     shape: Literal["mesh"]
     path: str = Field(description="mesh file (OBJ, PLY, STL, OFF), relative to the scenario file")
     units: Literal["m", "cm", "mm", "km", "ft", "in"] = "m"
@@ -174,15 +180,21 @@ Rock = Annotated[
 
 # -------------------------------------------------------------------- pedestal
 class PlanePedestal(Strict):
+    """``[pedestal] kind = "plane"``: the flat ground z = 0 (the default)."""
+
     kind: Literal["plane"] = "plane"
 
 
 class BoxPedestal(Strict):
+    """``[pedestal] kind = "box"``: a box, half extents (3,) m, top face at z = 0 under the rock."""
+
     kind: Literal["box"]
     half_extents: Vec3Pos = Field(description="half sizes; the top face is at z = 0 under the rock")
 
 
 class MeshPedestal(Strict):
+    """``[pedestal] kind = "mesh"``: a pedestal mesh file in ``units``, in the scene frame."""
+
     kind: Literal["mesh"]
     path: str
     units: Literal["m", "cm", "mm", "km", "ft", "in"] = "m"
@@ -195,12 +207,15 @@ Pedestal = Annotated[
 
 
 class Contact(Strict):
+    """``[contact]``: Coulomb friction μ_s, μ_d (dimensionless) and normal restitution (0–1)."""
+
     friction_static: NonNegFloat = Field(1.0, description="μ_s, dimensionless")
     friction_dynamic: NonNegFloat | None = Field(None, description="μ_d (defaults to μ_s)")
     restitution: Annotated[float, Field(ge=0, le=1)] = Field(0.0, description="normal velocity restitution")
 
     @property
     def mu_d(self) -> float:
+        """Dynamic friction coefficient μ_d (dimensionless): ``friction_dynamic``, else μ_s."""
         return self.friction_static if self.friction_dynamic is None else self.friction_dynamic
 
 
@@ -210,6 +225,8 @@ class _MotionBase(Strict):
 
 
 class HalfSineMotion(_MotionBase):
+    """``type = "half_sine"``: one half-sine pulse of ``amplitude`` m/s² at ``frequency`` Hz."""
+
     type: Literal["half_sine"]
     amplitude: PositiveFloat = Field(description="m/s²")
     frequency: PositiveFloat = Field(1.0, description="Hz (ω = 2πf)")
@@ -219,6 +236,8 @@ class HalfSineMotion(_MotionBase):
 
 
 class SawtoothMotion(_MotionBase):
+    """``type = "sawtooth"``: a sawtooth velocity pulse of peak ``pgv`` m/s and period ``period`` s."""
+
     type: Literal["sawtooth"]
     pgv: PositiveFloat = Field(description="peak ground velocity, m/s")
     period: PositiveFloat = Field(description="T, s")
@@ -226,24 +245,32 @@ class SawtoothMotion(_MotionBase):
 
 
 class OneSineMotion(_MotionBase):
+    """``type = "one_sine"``: one full sine cycle of ``amplitude`` m/s² at ``frequency`` Hz."""
+
     type: Literal["one_sine"]
     amplitude: PositiveFloat
     frequency: PositiveFloat
 
 
 class OneCosineMotion(_MotionBase):
+    """``type = "one_cosine"``: one full cosine cycle of ``amplitude`` m/s² at ``frequency`` Hz."""
+
     type: Literal["one_cosine"]
     amplitude: PositiveFloat
     frequency: PositiveFloat
 
 
 class RectangularMotion(_MotionBase):
+    """``type = "rectangular"``: a constant ``amplitude`` m/s² for ``pulse_duration`` s."""
+
     type: Literal["rectangular"]
     amplitude: PositiveFloat
     pulse_duration: PositiveFloat = Field(description="s")
 
 
 class RickerMotion(_MotionBase):
+    """``type = "ricker"``: a Ricker wavelet of peak ``amplitude`` m/s², central ``frequency`` Hz."""
+
     type: Literal["ricker"]
     amplitude: PositiveFloat
     frequency: PositiveFloat
@@ -299,6 +326,8 @@ class RecordComponent(_RecordSource):
 
 
 class RecordMotion(_MotionBase, _RecordSource):
+    """``type = "record"``: a recorded accelerogram (AT2, table or npz), processed and scaled."""
+
     type: Literal["record"]
     second: RecordComponent | None = Field(
         None, description="second horizontal component (H2); both are projected onto the shaking azimuth"
@@ -526,6 +555,7 @@ class Scenario(Strict):
 
     # ------------------------------------------------------------------ paths
     def resolve_path(self, p: str) -> Path:
+        """A path written in the scenario, relative to the scenario file's folder (absolute kept)."""
         q = Path(p)
         return q if q.is_absolute() else (self._base_dir / q)
 
@@ -614,6 +644,7 @@ class Scenario(Strict):
         return out
 
     def get_value(self, key: str) -> Any:
+        """The value at a dotted key (``"excitation.amplitude"``), SI units as written in the file."""
         node: Any = self
         for p in key.split("."):
             if not hasattr(node, p):
@@ -739,6 +770,13 @@ def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
 
 
 def scenario_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Scenario:
+    """Validate parsed scenario tables; ``source`` (the file) anchors relative paths and messages.
+
+    Raises
+    ------
+    ScenarioError
+        naming the file, the key, what was found and what was expected.
+    """
     scn = _validate(data, source)
     if source is not None:
         scn._base_dir = Path(source).resolve().parent
@@ -747,8 +785,10 @@ def scenario_from_dict(data: dict[str, Any], *, source: Path | None = None) -> S
 
 
 def save_scenario(scn: Scenario, path: str | Path) -> None:
+    """Write ``scn`` as TOML to ``path`` (round-trips through :func:`load_scenario`)."""
     Path(path).write_text(scn.to_toml())
 
 
 def deg(x: float) -> float:
+    """Degrees -> radians (``x`` in °, returns rad)."""
     return math.radians(x)

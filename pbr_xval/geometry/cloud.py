@@ -127,6 +127,7 @@ class AlphaSolid:
         return np.concatenate(out) if out else np.zeros((0, 3))
 
     def to_dict(self) -> dict[str, Any]:
+        """The alpha solid's parameters and checks as plain JSON values (lengths in m)."""
         return {
             "method": self.method,
             "alpha_m": self.alpha,

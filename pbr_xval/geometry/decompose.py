@@ -22,6 +22,7 @@ __all__ = ["cache_dir_default", "convex_parts", "decomposition_report"]
 
 
 def cache_dir_default() -> Path:
+    """Cache folder of decompositions: ``$PBR_XVAL_CACHE``, else ``~/.cache/pbr_xval``."""
     env = os.environ.get("PBR_XVAL_CACHE")
     return Path(env) if env else Path.home() / ".cache" / "pbr_xval"
 

@@ -175,6 +175,7 @@ class ContactPatch:
     basis: np.ndarray
 
     def to_dict(self) -> dict[str, Any]:
+        """The contact patch as plain JSON values (points in m, areas in m²)."""
         return {
             "n_points": len(self.points),
             "eps_m": self.eps,

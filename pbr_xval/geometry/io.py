@@ -74,6 +74,7 @@ class Scan:
 
     @property
     def name(self) -> str:
+        """The scan's name: the stem of its file (``"scan"`` when read from memory)."""
         return Path(self.info.get("path", "scan")).stem
 
 

@@ -57,6 +57,7 @@ class MassProperties:
     spacing: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
+        """Mass (kg), volume (m³), COM (3,) m and inertia (3, 3) kg·m² as plain JSON values."""
         d = asdict(self)
         return {k: (np.asarray(v).tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}
 

@@ -59,6 +59,7 @@ class ScannedRock:
         return trimesh.transform_points(np.atleast_2d(p), inv) + self.offset
 
     def to_dict(self) -> dict[str, Any]:
+        """The rock model's figures (mass kg, COM m, critical tilts rad, toppling accelerations m/s²) as JSON."""
         acc = self.stability.toppling_accel(self.gravity)
         a = self.stability.alpha
         au = self.stability.uplift_angle

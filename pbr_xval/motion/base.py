@@ -209,10 +209,12 @@ class ScaledMotion(GroundMotion):
 
     @property
     def duration(self) -> float:
+        """float, s: the base motion's duration (scaling does not change it)."""
         return self.base.duration
 
     @property
     def breakpoints(self) -> tuple[float, ...]:
+        """tuple of float, s: the base motion's breakpoints."""
         return self.base.breakpoints
 
     @property
@@ -226,6 +228,7 @@ class ScaledMotion(GroundMotion):
         return abs(self.factor) * self.base.pgv  # type: ignore[attr-defined]
 
     def describe(self) -> dict[str, Any]:
+        """Parameters as a JSON-serialisable dict: the factor and the base motion's description."""
         return {
             "type": "ScaledMotion",
             "name": self.name,

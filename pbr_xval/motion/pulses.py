@@ -198,6 +198,7 @@ class Sawtooth(_Pulse):
 
     @property
     def breakpoints(self) -> tuple[float, ...]:
+        """tuple of float, s: start, the velocity peak (end of the ramp) and the end."""
         return (0.0, self._Tr, self._T)
 
     def _a_in(self, tau: Arr) -> Arr:
@@ -401,6 +402,7 @@ class Ricker(GroundMotion):
         return self.amplitude / (2.0 * (math.pi * self.frequency) ** 2)
 
     def describe(self) -> dict[str, Any]:
+        """Parameters as a JSON-serialisable dict (amplitude m/s², frequency Hz, times s)."""
         return {
             "type": "Ricker",
             "name": self.name,

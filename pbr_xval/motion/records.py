@@ -153,6 +153,7 @@ class Record(GroundMotion):
 
     @property
     def breakpoints(self) -> tuple[float, ...]:
+        """tuple of float, s: 0, the record's start t0 and its end."""
         return tuple(sorted({0.0, self.t0, self.duration}))
 
     @property
@@ -207,6 +208,7 @@ class Record(GroundMotion):
         )  # fmt: skip
 
     def describe(self) -> dict[str, Any]:
+        """Parameters and provenance as a JSON-serialisable dict (dt s, PGA m/s², source, processing)."""
         return {
             "type": "Record",
             "name": self.name,
