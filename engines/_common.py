@@ -109,6 +109,8 @@ def model_key(scene: Scene, settings: Mapping[str, Any]) -> str:
 
 
 _MODELS: dict[str, tuple[str, Any]] = {}
+#: models compiled by :func:`cached_model` in this process, per engine (benchmarks check one per worker)
+MODEL_BUILDS: dict[str, int] = {}
 
 
 def cached_model(engine: str, scene: Scene, settings: Mapping[str, Any], build: Any) -> Any:
@@ -122,6 +124,7 @@ def cached_model(engine: str, scene: Scene, settings: Mapping[str, Any], build: 
     hit = _MODELS.get(engine)
     if hit is None or hit[0] != key:
         hit = _MODELS[engine] = (key, build())
+        MODEL_BUILDS[engine] = MODEL_BUILDS.get(engine, 0) + 1
     return hit[1]
 
 

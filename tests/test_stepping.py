@@ -1,0 +1,180 @@
+"""The stepping core (pbr_xval.stepping) driven by a fake engine with a prescribed motion.
+
+The fake stepper rotates the Housner block about its support edge by a prescribed angle θ(t)
+(no physics), so every event time is known in advance. The core records blocks of steps with
+a vectorised screen; the independent reference is the per-step recorder: the same states fed
+one by one to :meth:`Recorder.record` (the adapters' loop before the core existed). Both must
+give the same samples and events, bit for bit — in particular events that happen *between*
+two output samples (uplift, a brief excursion past the critical tilt, the decision time, a NaN).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pbr_xval.conformance import housner_scenario
+from pbr_xval.scene import compile_scene
+from pbr_xval.stepping import Recorder, StepBlock, StepperBase, n_steps, rotation_about, run_steps
+
+DT = 1e-3
+
+
+def _scene(output_dt: float = 1e-2, duration: float = 1.0, **kw):
+    exc = {"type": "half_sine", "amplitude": 5.0, "frequency": 1.0, "phase": "housner_uplift"}
+    return compile_scene(housner_scenario(duration=duration, output_dt=output_dt, excitation=exc, **kw))
+
+
+class FakeStepper(StepperBase):
+    """Prescribed rocking θ(t) (rad) about the +d support edge of the scene's rock."""
+
+    def __init__(self, scene, theta, raise_at: int | None = None) -> None:
+        self.scene, self.theta, self.raise_at = scene, theta, raise_at
+        com = np.asarray(scene.rock.com, dtype=float)
+        self.com0 = com
+        v = scene.rock.mesh.vertices
+        self.pivot = np.array([com[0] + (v[:, 0].max() - com[0]), com[1], v[:, 2].min()])
+        self.e = scene.rocking_axis
+
+    def set_initial(self, com, rot, vel, omega) -> None:  # the fake starts at rest
+        raise AssertionError("not tilted")
+
+    def settle(self, n: int) -> None:
+        self.settled = n
+
+    def state(self):
+        return self.com0.copy(), np.eye(3), 0.0
+
+    def begin(self, n: int) -> None:
+        self.n = n
+
+    def pose(self, k: int):
+        th = self.theta((k + 1) * DT)
+        r = rotation_about(self.e, th) if math.isfinite(th) else np.full((3, 3), np.nan)
+        com = self.pivot + r @ (self.com0 - self.pivot)
+        w = (self.theta((k + 1.5) * DT) - self.theta((k + 0.5) * DT)) / DT * self.e
+        return com, r, w
+
+    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
+        for i, k in enumerate(range(k0, k1)):
+            if self.raise_at is not None and k == self.raise_at:
+                raise RuntimeError("engine blew up")
+            com, r, w = self.pose(k)
+            block.com[i], block.rot[i], block.omega[i] = com, r.ravel(), w
+            block.ncon[i], block.pen[i] = 2 + k % 3, 1e-6 * (k % 7)
+            block.n = i + 1
+
+
+def per_step(scene, stepper: FakeStepper) -> Recorder:
+    """The reference: every state through Recorder.record, as the adapters did before the core."""
+    rec = Recorder(scene, DT)
+    rec.start(stepper.com0, np.eye(3))
+    n = n_steps(float(scene.duration), DT)
+    for k in range(n):
+        if stepper.raise_at is not None and k == stepper.raise_at:
+            break
+        com, r, w = stepper.pose(k)
+        if rec.record(
+            (k + 1) * DT, com, r, w, n_contacts=2 + k % 3, penetration=1e-6 * (k % 7), force=k == n - 1
+        ):
+            break
+    return rec
+
+
+def _same(a: Recorder, b: Recorder) -> None:
+    assert a.t == b.t
+    assert a.com == b.com and a.rot == b.rot and a.omega == b.omega
+    assert [e.to_dict() for e in a.events] == [e.to_dict() for e in b.events]
+    assert a.contacts == b.contacts and a.max_penetration == b.max_penetration
+    assert (a._past, a._outward, a._prev_cos, a._toppled, a.undecided) == (
+        b._past,
+        b._outward,
+        b._prev_cos,
+        b._toppled,
+        b.undecided,
+    )
+
+
+ALPHA = math.atan(0.2 / 0.6)
+
+
+@pytest.mark.parametrize(
+    "name, theta",
+    [
+        # rocks below α: uplift at a step between two samples (output every 10 steps)
+        ("rocking", lambda t: 0.5 * ALPHA * math.sin(2 * math.pi * t) ** 2),
+        # past α for 5 steps (between the samples at 0.20 and 0.21 s) while the pulse is on
+        # (it ends at 0.40 s), then back: stands
+        ("brief excursion", lambda t: ALPHA * max(0.0, 1.002 - 0.002 * ((t - 0.2055) / 0.003) ** 2)),
+        # tilts to the ground: "down" decided at a step between samples, crossing time per step
+        ("topples", lambda t: min(math.pi / 2 + 0.1, 3.0 * t * t)),
+        # the state turns NaN at a step between samples: failed at that step
+        ("nan", lambda t: math.nan if t > 0.5034 else 0.1 * t),
+    ],
+)
+@pytest.mark.parametrize("block", [1, 7, 64])
+def test_block_recording_equals_per_step(name, theta, block) -> None:
+    scene = _scene()
+    rec, _ = run_steps(FakeStepper(scene, theta), scene, DT, block=block)
+    _same(rec, per_step(scene, FakeStepper(scene, theta)))
+    kinds = [e.kind for e in rec.events]
+    if name != "nan":
+        assert "uplift" in kinds
+        # the uplift step lies between two samples: its time is a step time, not a sample time
+        t_up = next(e.t for e in rec.events if e.kind == "uplift")
+        assert t_up not in rec.t
+    if name == "brief excursion":  # past α only between samples; still decided per step: stands
+        th = np.array([theta(t) for t in rec.t])
+        assert th.max() < ALPHA * 1.0001 and "toppled" not in kinds
+    if name == "topples":
+        ev = next(e for e in rec.events if e.kind == "toppled")
+        # last outward crossing of α: the first step with 3 t² > α (the fake crosses once)
+        k_cross = math.ceil(math.sqrt(ALPHA / 3.0) / DT - 1e-9)
+        assert ev.t == pytest.approx(k_cross * DT, abs=1.5 * DT)
+        assert ev.t not in rec.t[:-1]
+    if name == "nan":
+        ev = next(e for e in rec.events if e.kind == "failed")
+        # ω at the step ending at 0.503 s uses θ(0.5035 s), the first NaN (the pose at 0.504 s)
+        assert ev.t == pytest.approx(0.503, abs=1e-12) and rec.failed
+
+
+def test_engine_exception_is_a_failed_run_keeping_the_samples() -> None:
+    scene = _scene()
+    theta = lambda t: 0.2 * ALPHA * t  # noqa: E731
+    rec, diag = run_steps(FakeStepper(scene, theta, raise_at=333), scene, DT, block=64, name="fake")
+    assert rec.failed.startswith("fake: engine error after 333 steps") and "RuntimeError" in diag["exception"]
+    ref = per_step(scene, FakeStepper(scene, theta, raise_at=333))
+    assert rec.t == ref.t and rec.t[-1] == pytest.approx(0.33)  # nothing computed before is lost
+    traj = rec.trajectory("fake", {}, {})
+    assert traj.status == "failed" and len(traj.t) == len(ref.t)
+
+
+def test_settling_and_step_count() -> None:
+    scene = _scene(settle_time=0.25)
+    st = FakeStepper(scene, lambda t: 0.0)
+    rec, diag = run_steps(st, scene, DT)
+    assert st.settled == 250 and diag["settle_steps"] == 250 and diag["steps"] == 1000
+    assert rec.t[-1] == pytest.approx(1.0) and len(rec.t) == 101  # every 10 ms, the last step kept
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "dart"])
+def test_adapters_record_every_step_state(engine: str) -> None:
+    """An engine run sampled every 10 ms has the same samples as its 1 ms run at those times.
+
+    The sampled states do not depend on the output rate (the engine steps the same way); the
+    toppling decision neither (same event times to the step).
+    """
+    pytest.importorskip({"mujoco": "mujoco", "pybullet": "pybullet", "dart": "dartpy"}[engine])
+    from pbr_xval.runner import run_scene
+
+    exc = {"type": "half_sine", "amplitude": 6.0, "frequency": 1.0, "phase": "housner_uplift"}
+    fine = run_scene(compile_scene(housner_scenario(duration=2.0, excitation=exc)), engine)
+    coarse = run_scene(compile_scene(housner_scenario(duration=2.0, excitation=exc, output_dt=1e-2)), engine)
+    tf = fine.t.tolist()
+    assert len(coarse.t) > 50 and all(t in tf for t in coarse.t.tolist())  # same step times
+    for i, t in enumerate(coarse.t.tolist()):
+        assert np.array_equal(fine.com[tf.index(t)], coarse.com[i])
+    ev = lambda tr: [(e.kind, e.t) for e in tr.events]  # noqa: E731
+    assert ev(fine) == ev(coarse) and fine.toppled and coarse.toppled
