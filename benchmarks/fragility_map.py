@@ -23,8 +23,8 @@ import numpy as np
 GOAL_S = 60.0
 
 
-def _row(args: tuple[str, float, list[float], float]) -> tuple[list[bool], int, int]:
-    """Toppled flags of one frequency row, the model compiles of this worker, and its pid."""
+def _row(args: tuple[str, float, list[float], float]) -> tuple[list[bool], int, int, float]:
+    """Toppled flags of one frequency row, the model compiles of this worker, its pid, CPU s of the row."""
     engine, freq, amps, duration = args
     from pbr_xval.conformance import housner_scenario
     from pbr_xval.engine import get_engine
@@ -32,6 +32,7 @@ def _row(args: tuple[str, float, list[float], float]) -> tuple[list[bool], int, 
     from pbr_xval.runner import run_scene
     from pbr_xval.scene import compile_scene
 
+    c0 = time.process_time()
     settings = get_engine(engine).profiles()["faithful"]
     out = []
     for a in amps:
@@ -41,7 +42,7 @@ def _row(args: tuple[str, float, list[float], float]) -> tuple[list[bool], int, 
         if traj.status != "ok":
             raise RuntimeError(f"{engine} failed at a = {a} m/s², f = {freq} Hz: {traj.message}")
         out.append(bool(traj.toppled))
-    return out, _common.MODEL_BUILDS.get(engine, 0), os.getpid()
+    return out, _common.MODEL_BUILDS.get(engine, 0), os.getpid(), time.process_time() - c0
 
 
 def fragility_map(n: int = 40, workers: int = 2, engine: str = "mujoco", duration: float = 2.5) -> dict:
@@ -53,14 +54,16 @@ def fragility_map(n: int = 40, workers: int = 2, engine: str = "mujoco", duratio
         rows = list(pool.map(_row, [(engine, f, amps, duration) for f in freqs]))
     wall = time.perf_counter() - t0
     builds: dict[int, int] = {}
-    for _, b, pid in rows:
+    for _, b, pid, _ in rows:
         builds[pid] = max(builds.get(pid, 0), b)
     return {
         "wall_s": wall,
         "n": n,
         "workers": workers,
         "engine": engine,
-        "toppled": np.array([r for r, _, _ in rows]),
+        "toppled": np.array([r[0] for r in rows]),
+        # CPU seconds of the simulations (worker start-up excluded): wall on idle cores ≈ cpu_s / workers
+        "cpu_s": float(sum(r[3] for r in rows)),
         "compiles_per_worker": sorted(builds.values()),
     }
 
@@ -81,6 +84,11 @@ def main() -> None:
     )
     print(
         f"  goal < {GOAL_S:.0f} s: ratio {r['wall_s'] / GOAL_S:.2f} ({'met' if r['wall_s'] < GOAL_S else 'NOT met'})"
+    )
+    idle = r["cpu_s"] / args.workers
+    print(
+        f"  CPU {r['cpu_s']:.1f} core-s in the simulations: {idle:.1f} s on {args.workers} idle cores "
+        f"(ratio {idle / GOAL_S:.2f}); load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs"
     )
 
 
