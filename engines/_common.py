@@ -72,6 +72,11 @@ def check_choices(engine: str, s: Mapping[str, Any], choices: Mapping[str, tuple
             )
     if not float(s["timestep"]) > 0:
         raise EngineSettingsError(f"engine {engine!r}: timestep must be > 0 s, got {s['timestep']!r}")
+    for key in ("friction", "restitution"):  # "scene": the scene's value, or a number
+        if key in s and s[key] != "scene" and not isinstance(s[key], int | float | list):
+            raise EngineSettingsError(
+                f"engine {engine!r}: setting {key!r} = {s[key]!r}; expected 'scene' or a number"
+            )
 
 
 def model_key(scene: Scene, settings: Mapping[str, Any]) -> str:

@@ -41,14 +41,7 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.engines._common import (
-    COLLISION_CHOICES,
-    StderrCapture,
-    cache_dir,
-    check_choices,
-    collision_parts,
-    write_obj,
-)
+from pbr_xval.engines import _common as common
 from pbr_xval.stepping import (
     GROUND_MODES,
     StepBlock,
@@ -80,7 +73,7 @@ def _load_mesh_shapes(dart: Any, paths: list[Path]) -> list[Any]:
     )
     urdf = f'<robot name="pbr_xval_mesh"><link name="l">{cols}</link></robot>'
     skel = dart.utils.DartLoader().parseSkeletonString(
-        urdf, dart.common.Uri.createFromPath(str(cache_dir()) + "/")
+        urdf, dart.common.Uri.createFromPath(str(common.cache_dir()) + "/")
     )
     if skel is None:
         raise RuntimeError(f"DART could not load the mesh files {[str(p) for p in paths]}")
@@ -166,20 +159,12 @@ class DartEngine(EngineBase):
         return {"pbr_xval": __version__, "dartpy": getattr(dart, "__version__", "?"), "numpy": np.__version__}
 
     def _check(self, s: Mapping[str, Any]) -> None:
-        def bad(key: str, allowed: Any) -> EngineSettingsError:
-            return EngineSettingsError(
-                f"engine 'dart': setting {key!r} = {s[key]!r}; expected one of {allowed}"
-            )
-
         choices = {
             "ground_motion": GROUND_MODES,
             "collision_detector": _DETECTORS,
             "lcp_solver": _LCP_SOLVERS,
         }
-        check_choices(self.name, s, choices | {"collision": COLLISION_CHOICES})
-        for k in ("friction", "restitution"):
-            if s[k] != "scene" and not isinstance(s[k], int | float):
-                raise bad(k, "'scene' or a number")
+        common.check_choices(self.name, s, choices | {"collision": common.COLLISION_CHOICES})
 
     # ------------------------------------------------------------------ model
     def _rock_shapes(
@@ -189,7 +174,7 @@ class DartEngine(EngineBase):
         D = dart.dynamics
         rock = scene.rock
         com = np.asarray(rock.com, dtype=float)
-        kind, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
+        kind, parts = common.collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
         if kind == "primitive":
             assert rock.primitive is not None  # collision_parts gives this kind only when it exists
             he = np.asarray(rock.primitive["half_extents"], dtype=float)
@@ -207,7 +192,7 @@ class DartEngine(EngineBase):
             ]
             return out, f"compound of {len(out)} boxes"
         # FCL collides a MeshShape as the triangle mesh itself (non-convex allowed)
-        paths = [write_obj(np.asarray(v, float) - com, f, f"dart_{kind}") for v, f in parts]
+        paths = [common.write_obj(np.asarray(v, float) - com, f, f"dart_{kind}") for v, f in parts]
         desc = {"hull": "convex hull mesh", "mesh": "triangle mesh (non-convex)"}.get(
             kind, f"{kind}, {len(paths)} parts"
         )
@@ -217,15 +202,14 @@ class DartEngine(EngineBase):
     def _pedestal_shape(self, dart: Any, scene: Scene, s: Mapping[str, Any]) -> tuple[Any, np.ndarray, str]:
         D = dart.dynamics
         ped = scene.pedestal
-        if ped["kind"] == "plane":
-            he = np.asarray(s["plane_half_extents"], dtype=float)
-            return D.BoxShape(2.0 * he), np.array([0.0, 0.0, -he[2]]), "box standing in for the plane"
-        if ped["kind"] == "box":
-            he = np.asarray(ped["half_extents"], dtype=float)
-            return D.BoxShape(2.0 * he), np.array([0.0, 0.0, -he[2]]), "box"
+        if ped["kind"] in ("plane", "box"):
+            plane = ped["kind"] == "plane"
+            he = np.asarray(s["plane_half_extents"] if plane else ped["half_extents"], dtype=float)
+            desc = "box standing in for the plane" if plane else "box"
+            return D.BoxShape(2.0 * he), np.array([0.0, 0.0, -he[2]]), desc
         if ped["kind"] == "mesh":
             pm = ped["mesh"]
-            path = write_obj(np.asarray(pm.vertices, float), np.asarray(pm.faces), "dart_pedestal")
+            path = common.write_obj(np.asarray(pm.vertices, float), np.asarray(pm.faces), "dart_pedestal")
             return _load_mesh_shapes(dart, [path])[0], np.zeros(3), "triangle mesh"
         raise NotApplicable(f"dart: unknown pedestal kind {ped['kind']!r}")
 
@@ -239,18 +223,12 @@ class DartEngine(EngineBase):
         if scene.rock.shape not in self.capabilities.shapes:
             raise NotApplicable(f"dart: rock shape {scene.rock.shape!r} is not supported")
 
-        dt = float(s["timestep"])
-        g = float(scene.gravity)
+        dt, g, rock = float(s["timestep"]), float(scene.gravity), scene.rock
         moving = s["ground_motion"] == "moving_pedestal"
-        rock = scene.rock
-        mass = float(rock.mass)
-        inertia = np.asarray(rock.inertia, dtype=float)
-        com0 = np.asarray(rock.com, dtype=float)
+        mass, inertia, com0 = float(rock.mass), np.asarray(rock.inertia, float), np.asarray(rock.com, float)
         mu_rock = mu_ped = float(scene.mu_s) if s["friction"] == "scene" else float(s["friction"])
-        if s["restitution"] == "scene":
-            e_rock, e_ped = float(scene.restitution), 1.0
-        else:
-            e_rock = e_ped = float(s["restitution"])
+        e_rock, e_ped = (scene.restitution, 1.0) if s["restitution"] == "scene" else (s["restitution"],) * 2
+        e_rock, e_ped = float(e_rock), float(e_ped)
 
         diag: dict[str, Any] = {}
         try:
@@ -259,10 +237,9 @@ class DartEngine(EngineBase):
             world.setTimeStep(dt)
             world.setGravity(np.array([0.0, 0.0, -g]))
             opts = world.getDeactivationOptions()
-            opts.mEnabled = bool(s["sleep"])
+            opts.mEnabled, opts.mTimeUntilSleep = bool(s["sleep"]), float(s["sleep_time"])
             opts.mLinearSpeedThreshold = float(s["sleep_linear_threshold"])
             opts.mAngularSpeedThreshold = float(s["sleep_angular_threshold"])
-            opts.mTimeUntilSleep = float(s["sleep_time"])
             world.setDeactivationOptions(opts)
 
             # ---- rock
@@ -278,43 +255,38 @@ class DartEngine(EngineBase):
             if moving:
                 pj, pbody = pskel.createTranslationalJointAndBodyNodePair()
                 pj.setActuatorType(D.ActuatorType.ACCELERATION)
-                pbody.setInertia(
-                    D.Inertia(float(s["pedestal_mass"]), np.zeros(3), np.eye(3) * float(s["pedestal_mass"]))
-                )
+                pm = float(s["pedestal_mass"])
+                pbody.setInertia(D.Inertia(pm, np.zeros(3), np.eye(3) * pm))
             else:
                 pj, pbody = pskel.createWeldJointAndBodyNodePair()
             pshape, poff, pdesc = self._pedestal_shape(dart, scene, s)
             _shape_node(pbody, pshape, np.eye(3), poff, mu_ped, e_ped)
 
-            world.addSkeleton(rskel)
-            world.addSkeleton(pskel)
+            for sk in (rskel, pskel):
+                world.addSkeleton(sk)
             det = {"fcl": "FCL", "ode": "Ode", "dart": "DART", "bullet": "Bullet"}[s["collision_detector"]]
             world.setCollisionDetector(getattr(dart.collision, f"{det}CollisionDetector")())
             cs = world.getConstraintSolver()
             cs.setSplitImpulseEnabled(bool(s["split_impulse"]))
             pgs_opt = dart.constraint.PgsBoxedLcpSolverOption()
             pgs_opt.mMaxIteration = int(s["pgs_iterations"])
-            if s["lcp_solver"] == "pgs":
-                pgs = cs.getSecondaryBoxedLcpSolver()
-                pgs.setOption(pgs_opt)
+            sec = cs.getSecondaryBoxedLcpSolver()
+            if sec is not None:
+                sec.setOption(pgs_opt)
+            if s["lcp_solver"] == "pgs":  # the PGS solver alone (primary, no fallback)
                 cs.setSecondaryBoxedLcpSolver(None)
-                cs.setBoxedLcpSolver(pgs)
-            else:
-                sec = cs.getSecondaryBoxedLcpSolver()
-                if sec is not None:
-                    sec.setOption(pgs_opt)
-                if s["lcp_solver"] == "nsgs":
-                    cs.setBoxedLcpSolver(dart.constraint.NsgsFrictionSolver())
-                elif s["lcp_solver"] == "fbf":
-                    cs.setBoxedLcpSolver(dart.constraint.FbfFrictionSolver())
+                cs.setBoxedLcpSolver(sec)
+            elif s["lcp_solver"] in ("nsgs", "fbf"):
+                cs.setBoxedLcpSolver(
+                    getattr(dart.constraint, f"{s['lcp_solver'].capitalize()}FrictionSolver")()
+                )
 
             fj.setTransform(dart.math.Isometry3(np.eye(3), com0))  # the rest pose; run_steps tilts
         except (NotApplicable, EngineSettingsError):
             raise
         except Exception as exc:  # engine error while building: a failed run, not an exception
-            return failed_trajectory(
-                self.name, scene, f"dart: building the model failed: {exc!r}", s, versions
-            )
+            msg = f"dart: building the model failed: {exc!r}"
+            return failed_trajectory(self.name, scene, msg, s, versions)
 
         diag.update(
             rock_model=model,
@@ -329,7 +301,7 @@ class DartEngine(EngineBase):
             diag["warning"] = "the DART-native and Bullet detectors make wrong mesh contacts (notes §5)"
 
         st = _DartStepper(dart, world, scene, fj, body, rskel, pj, moving)
-        cap = StderrCapture()
+        cap = common.StderrCapture()
         with cap.capture():
             rec, loop = run_steps(st, scene, dt, settle=bool(s["settle"]), name=self.name)
         diag.update(loop)

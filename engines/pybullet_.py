@@ -28,7 +28,6 @@ from pbr_xval.engine import (
     Capabilities,
     EngineBase,
     EngineSettingsError,
-    NotApplicable,
     Trajectory,
     import_engine_package,
 )
@@ -37,11 +36,11 @@ from pbr_xval.stepping import (
     StepBlock,
     StepperBase,
     gravity_sequence,
-    matrix_to_quat,
     run_steps,
 )
 
-from ._common import COLLISION_CHOICES, check_choices, collision_parts, write_obj
+from ._common import COLLISION_CHOICES, check_choices
+from ._pybullet_model import pedestal, principal_frame, rock_shape, xyzw
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -55,27 +54,6 @@ _BULLET_MAX_FRICTION = 10.0
 
 def _import_pybullet() -> Any:
     return import_engine_package("pybullet", "pybullet")
-
-
-def _xyzw(r: np.ndarray) -> list[float]:
-    """PyBullet quaternion (x, y, z, w) from a rotation matrix (3, 3)."""
-    w, x, y, z = matrix_to_quat(r)
-    return [float(x), float(y), float(z), float(w)]
-
-
-def _principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Principal moments (3,) kg·m² and the rotation (3, 3) principal axes → scene axes.
-
-    A diagonal tensor (relative off-diagonal ≤ 1e-12) keeps the scene axes.
-    """
-    i = 0.5 * (np.asarray(inertia, dtype=float) + np.asarray(inertia, dtype=float).T)
-    off = np.abs(i - np.diag(np.diag(i))).max()
-    if off <= 1e-12 * np.trace(i):
-        return np.diag(i).copy(), np.eye(3)
-    lam, vec = np.linalg.eigh(i)
-    if np.linalg.det(vec) < 0:
-        vec[:, 2] = -vec[:, 2]
-    return lam, vec
 
 
 class PyBulletEngine(EngineBase):
@@ -169,9 +147,6 @@ class PyBulletEngine(EngineBase):
 
         choices = {"ground_motion": GROUND_MODES, "collision": COLLISION_CHOICES, "solver_type": _SOLVERS}
         check_choices(self.name, s, choices | {"plane_pedestal": ("plane", "box")})
-        for key in ("friction", "restitution"):
-            if s[key] != "scene" and not isinstance(s[key], int | float):
-                raise bad(key, "'scene' or a number")
         if (s["contact_stiffness"] is None) != (s["contact_damping"] is None):
             raise bad("contact_stiffness", "to be set together with contact_damping (both or neither)")
         if s["contact_stiffness"] is not None and not (
@@ -180,116 +155,6 @@ class PyBulletEngine(EngineBase):
             raise bad("contact_stiffness", "> 0 N/m with contact_damping >= 0 N·s/m")
         if s["collision_margin"] is not None and not s["collision_margin"] >= 0:
             raise bad("collision_margin", "None or >= 0 m")
-
-    # --------------------------------------------------------------- building
-    def _rock_shape(
-        self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], rot0: np.ndarray
-    ) -> tuple[int, dict]:
-        """Collision shape of the rock in the body frame (origin at the COM, axes ``rot0``)."""
-        rock = scene.rock
-        com = rock.com
-        choice, parts = collision_parts(scene, s["collision"], s["coacd_threshold"], s["coacd_seed"])
-        rt = rot0.T
-        if choice == "primitive":
-            if rock.primitive is None or rock.primitive.get("type") != "box":
-                raise NotApplicable(f"pybullet: collision 'primitive' needs a box rock, got {rock.shape!r}")
-            centre = rock.mesh.bounds.mean(axis=0)
-            sid = p.createCollisionShape(
-                p.GEOM_BOX,
-                halfExtents=[float(x) for x in rock.primitive["half_extents"]],
-                collisionFramePosition=(rt @ (centre - com)).tolist(),
-                collisionFrameOrientation=_xyzw(rt @ rock.rotation),
-                physicsClientId=cid,
-            )
-            return sid, {"collision": "primitive", "n_parts": 1}
-        if choice == "boxes":
-            if not rock.box_parts:
-                raise NotApplicable(
-                    f"pybullet: collision 'boxes' needs a rock made of boxes, got {rock.shape!r}"
-                )
-            q = _xyzw(rt @ rock.rotation)
-            n = len(rock.box_parts)
-            sid = p.createCollisionShapeArray(
-                shapeTypes=[p.GEOM_BOX] * n,
-                halfExtents=[[float(x) for x in he] for _, he in rock.box_parts],
-                collisionFramePositions=[(rt @ (np.asarray(c) - com)).tolist() for c, _ in rock.box_parts],
-                collisionFrameOrientations=[q] * n,
-                physicsClientId=cid,
-            )
-            return sid, {"collision": "boxes", "n_parts": n}
-        if choice == "hull":
-            verts = (parts[0][0] - com) @ rot0  # rows: rt @ (v - com)
-            sid = p.createCollisionShape(p.GEOM_MESH, vertices=verts.tolist(), physicsClientId=cid)
-            return sid, {"collision": "hull", "n_parts": 1, "hull_vertices": len(verts)}
-        # several (convex) parts: createCollisionShapeArray has no vertex arrays, so OBJ files;
-        # each GEOM_MESH collides as its convex hull
-        files = [write_obj(v, f, f"pybullet_{choice}") for v, f in parts]
-        n = len(files)
-        sid = p.createCollisionShapeArray(
-            shapeTypes=[p.GEOM_MESH] * n,
-            fileNames=[str(f) for f in files],
-            meshScales=[[1.0, 1.0, 1.0]] * n,
-            collisionFramePositions=[(-(rt @ com)).tolist()] * n,
-            collisionFrameOrientations=[_xyzw(rt)] * n,
-            physicsClientId=cid,
-        )
-        return sid, {"collision": choice, "n_parts": n}
-
-    def _pedestal(
-        self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], moving: bool, axes: int
-    ) -> tuple[int, int]:
-        """Pedestal body and the link index that carries its collision shape (−1: the base)."""
-        ped = scene.pedestal
-        kind = ped["kind"]
-        frame_pos = [0.0, 0.0, 0.0]
-        if kind == "plane" and s["plane_pedestal"] == "plane" and not moving:
-            shape = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid)
-        elif ped["kind"] in ("plane", "box"):
-            he = [
-                float(x)
-                for x in (ped["half_extents"] if ped["kind"] == "box" else s["plane_box_half_extents"])
-            ]
-            frame_pos = [0.0, 0.0, -he[2]]
-            shape = p.createCollisionShape(
-                p.GEOM_BOX, halfExtents=he, collisionFramePosition=frame_pos, physicsClientId=cid
-            )
-        elif ped["kind"] == "mesh":
-            if moving:
-                raise NotApplicable("pybullet: a mesh pedestal is a static concave trimesh; it cannot move")
-            m = ped["mesh"]
-            shape = p.createCollisionShape(
-                p.GEOM_MESH,
-                vertices=np.asarray(m.vertices, dtype=float).tolist(),
-                indices=np.asarray(m.faces, dtype=int).ravel().tolist(),
-                flags=p.GEOM_FORCE_CONCAVE_TRIMESH,
-                physicsClientId=cid,
-            )
-        else:
-            raise NotApplicable(f"pybullet: unknown pedestal kind {kind!r}")
-        if not moving:
-            return p.createMultiBody(0.0, shape, basePosition=[0.0, 0.0, 0.0], physicsClientId=cid), -1
-        mass = float(s["pedestal_mass"])
-        unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]][:axes]
-        body = p.createMultiBody(
-            baseMass=0.0,
-            baseCollisionShapeIndex=-1,
-            basePosition=[0.0, 0.0, 0.0],
-            linkMasses=[mass] * axes,
-            linkCollisionShapeIndices=[-1] * (axes - 1) + [shape],
-            linkVisualShapeIndices=[-1] * axes,
-            linkPositions=[[0.0, 0.0, 0.0]] * axes,
-            linkOrientations=[[0.0, 0.0, 0.0, 1.0]] * axes,
-            linkInertialFramePositions=[[0.0, 0.0, 0.0]] * axes,
-            linkInertialFrameOrientations=[[0.0, 0.0, 0.0, 1.0]] * axes,
-            linkParentIndices=list(range(axes)),
-            linkJointTypes=[p.JOINT_PRISMATIC] * axes,
-            linkJointAxis=unit,
-            physicsClientId=cid,
-        )
-        for j in range(axes):
-            p.setJointMotorControl2(body, j, p.VELOCITY_CONTROL, force=0.0, physicsClientId=cid)
-            p.changeDynamics(body, j, linearDamping=0.0, angularDamping=0.0, physicsClientId=cid)
-        return body, axes - 1
 
     # --------------------------------------------------------------- simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
@@ -325,14 +190,14 @@ class PyBulletEngine(EngineBase):
 
         # ---- rock: body frame at the COM along the principal axes
         rock = scene.rock
-        lam, rot0 = _principal_frame(rock.inertia)
-        shape, model = self._rock_shape(p, cid, scene, s, rot0)
-        ped, ped_link = self._pedestal(p, cid, scene, s, moving, axes)
+        lam, rot0 = principal_frame(rock.inertia)
+        shape, model = rock_shape(p, cid, scene, s, rot0)
+        ped, ped_link = pedestal(p, cid, scene, s, moving, axes)
         body = p.createMultiBody(
             baseMass=float(rock.mass),
             baseCollisionShapeIndex=shape,
             basePosition=rock.com.tolist(),
-            baseOrientation=_xyzw(rot0),
+            baseOrientation=xyzw(rot0),
             physicsClientId=cid,
         )
 
@@ -410,7 +275,7 @@ class _PbStepper(StepperBase):
     def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
         p, cid = self.p, self.cid
         p.resetBasePositionAndOrientation(
-            self.body, com.tolist(), _xyzw(rot @ self.rest_rotation), physicsClientId=cid
+            self.body, com.tolist(), xyzw(rot @ self.rest_rotation), physicsClientId=cid
         )
         p.resetBaseVelocity(self.body, vel.tolist(), omega.tolist(), physicsClientId=cid)
 
