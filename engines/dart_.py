@@ -159,12 +159,8 @@ class DartEngine(EngineBase):
         return {"pbr_xval": __version__, "dartpy": getattr(dart, "__version__", "?"), "numpy": np.__version__}
 
     def _check(self, s: Mapping[str, Any]) -> None:
-        choices = {
-            "ground_motion": GROUND_MODES,
-            "collision_detector": _DETECTORS,
-            "lcp_solver": _LCP_SOLVERS,
-        }
-        common.check_choices(self.name, s, choices | {"collision": common.COLLISION_CHOICES})
+        c = {"ground_motion": GROUND_MODES, "collision_detector": _DETECTORS, "lcp_solver": _LCP_SOLVERS}
+        common.check_choices(self.name, s, c | {"collision": common.COLLISION_CHOICES})
 
     # ------------------------------------------------------------------ model
     def _rock_shapes(
@@ -304,13 +300,12 @@ class DartEngine(EngineBase):
         cap = common.StderrCapture()
         with cap.capture():
             rec, loop = run_steps(st, scene, dt, settle=bool(s["settle"]), name=self.name)
-        diag.update(loop)
         lines = cap.text.splitlines()
-        lcp_fail = sum(1 for ln in lines if any(nd in ln for nd in _LCP_FAILURE_NEEDLES))
         diag.update(
-            dart_lcp_failure_lines=lcp_fail,
-            dart_stderr_lines=len(lines),
-            dart_stderr_first_line=lines[0][:200] if lines else "",
+            loop, dart_stderr_lines=len(lines), dart_stderr_first_line=lines[0][:200] if lines else ""
+        )
+        diag["dart_lcp_failure_lines"] = sum(
+            1 for ln in lines if any(nd in ln for nd in _LCP_FAILURE_NEEDLES)
         )
         return rec.trajectory(self.name, s, versions, diag)
 
@@ -323,7 +318,7 @@ class _DartStepper(StepperBase):
     ) -> None:
         self.dart, self.world, self.scene, self.fj, self.body = dart, world, scene, fj, body
         self.rskel, self.pj, self.moving = rskel, pj, moving
-        self.dt = float(world.getTimeStep())
+        self.dt, self.mat = float(world.getTimeStep()), np.zeros((0, 4, 4))
 
     def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
         self.fj.setTransform(self.dart.math.Isometry3(rot, com))
@@ -349,10 +344,9 @@ class _DartStepper(StepperBase):
     def begin(self, n: int) -> None:
         scene, dt = self.scene, self.dt
         t_mid = (np.arange(n) + 0.5) * dt
-        self.acc = np.ascontiguousarray(
-            np.asarray(scene.excitation.acceleration(t_mid), dtype=float).reshape(n, 3)
-        )
+        self.acc = np.ascontiguousarray(np.asarray(scene.excitation.acceleration(t_mid), float).reshape(n, 3))
         self.grav = gravity_sequence(scene, t_mid)
+        self.grav_l, self.last = self.grav.tolist(), None
         if self.moving:
             # the pedestal starts at the excitation's displacement/velocity at t = 0; the rock rides along
             d0 = np.asarray(scene.excitation.displacement(0.0), dtype=float).reshape(3)
@@ -366,29 +360,38 @@ class _DartStepper(StepperBase):
         # FreeJoint generalised velocities are (ω, v) in world coordinates in dartpy 6.20;
         # reading them (1 µs) is 4× cheaper than BodyNode.getAngularVelocity(); checked here.
         self.fast_omega = _freejoint_velocity_is_world(self.dart)
-        self.last: np.ndarray | None = None
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
         world, body, pj, moving, acc, grav = self.world, self.body, self.pj, self.moving, self.acc, self.grav
-        rskel, fast = self.rskel, self.fast_omega
-        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        last = self.last
-        for i, k in enumerate(range(k0, k1)):
+        rskel, fast, grav_l = self.rskel, self.fast_omega, self.grav_l
+        ncon, pen, n = block.ncon, block.pen, k1 - k0
+        if len(self.mat) < n:  # pose (4, 4), velocities (6,), pedestal position (3,) per step
+            self.mat, self.vel, self.ppos = np.zeros((n, 4, 4)), np.zeros((n, 6)), np.zeros((n, 3))
+        mat, vel, ppos = self.mat, self.vel, self.ppos
+        i = 0
+        try:
+            for i, k in enumerate(range(k0, k1)):
+                if moving:
+                    pj.setCommands(acc[k])
+                elif grav_l[k] != self.last:
+                    world.setGravity(grav[k])
+                    self.last = grav_l[k]
+                world.step()
+                mat[i] = body.getTransform().matrix()
+                if moving:
+                    ppos[i] = pj.getPositions()
+                if fast:
+                    vel[i] = rskel.getVelocities()
+                else:
+                    vel[i, :3] = body.getAngularVelocity()
+                contacts = world.getLastCollisionResult().getContacts()
+                ncon[i] = len(contacts)
+                pen[i] = max([c.penetrationDepth for c in contacts], default=0.0)
+            i = n
+        finally:
+            block.n = i
+            block.com[:i] = mat[:i, :3, 3]
             if moving:
-                pj.setCommands(acc[k])
-            else:
-                gk = grav[k]
-                if last is None or gk[0] != last[0] or gk[1] != last[1] or gk[2] != last[2]:
-                    world.setGravity(gk)
-                    self.last = last = gk
-            world.step()
-            T = body.getTransform()
-            com[i] = T.translation()
-            if moving:
-                com[i] -= pj.getPositions()
-            rot[i] = T.rotation().ravel()
-            om[i] = rskel.getVelocities()[:3] if fast else body.getAngularVelocity()
-            contacts = world.getLastCollisionResult().getContacts()
-            ncon[i] = len(contacts)
-            pen[i] = max([c.penetrationDepth for c in contacts], default=0.0)
-            block.n = i + 1
+                block.com[:i] -= ppos[:i]
+            block.rot[:i] = mat[:i, :3, :3].reshape(i, 9)
+            block.omega[:i] = vel[:i, :3]
