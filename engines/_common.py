@@ -13,6 +13,7 @@ import contextlib
 import hashlib
 import os
 import tempfile
+import threading
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -113,7 +114,8 @@ def model_key(scene: Scene, settings: Mapping[str, Any]) -> str:
     return h.hexdigest()
 
 
-_MODELS: dict[str, tuple[str, Any]] = {}
+#: one cached model per engine and thread (an adapter may change a model's options while it runs)
+_MODELS = threading.local()
 #: models compiled by :func:`cached_model` in this process, per engine (benchmarks check one per worker)
 MODEL_BUILDS: dict[str, int] = {}
 
@@ -121,14 +123,15 @@ MODEL_BUILDS: dict[str, int] = {}
 def cached_model(engine: str, scene: Scene, settings: Mapping[str, Any], build: Any) -> Any:
     """``build()``'s compiled model, reused while the scene geometry and settings stay the same.
 
-    One model per engine and worker process: a sweep over excitations of one scene (threshold
+    One model per engine and worker process (and thread): a sweep over excitations of one scene (threshold
     search, fragility map) compiles once; a different scene replaces it. ``build`` must return a
     model the adapter does not mutate between runs (or resets at the start of each run).
     """
     key = model_key(scene, settings)
-    hit = _MODELS.get(engine)
+    models: dict[str, tuple[str, Any]] = _MODELS.__dict__.setdefault("models", {})
+    hit = models.get(engine)
     if hit is None or hit[0] != key:
-        hit = _MODELS[engine] = (key, build())
+        hit = models[engine] = (key, build())
         MODEL_BUILDS[engine] = MODEL_BUILDS.get(engine, 0) + 1
     return hit[1]
 
