@@ -119,7 +119,7 @@ def validate_command(
     for r in sc.itertuples():
         console.print(
             f"{r.model:>18s}  F1 {r.f1:.3f}  acc {r.accuracy:.3f}  prec {r.precision:.3f}  rec {r.recall:.3f}"
-            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  [{r.evaluated_on}]",
+            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  {escape('[' + r.evaluated_on + ']')}",
             soft_wrap=True,
         )
     for line in f1_lines(res):
