@@ -427,7 +427,11 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
         raise sc.ScenarioError(
             f"scenario {scn.name!r}: key 'rock': the rock mesh has volume {volume} m³ (expected > 0)"
         )
-    density = rock.density if rock.density is not None else rock.mass / volume
+    if rock.density is not None:
+        density = rock.density
+    else:
+        assert rock.mass is not None  # the scenario requires density or mass
+        density = rock.mass / volume
     mesh.density = density
     mp = mesh.mass_properties
     com = np.asarray(mp["center_mass"], dtype=float)

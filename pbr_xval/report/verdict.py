@@ -215,7 +215,7 @@ def _threshold_case(r: StudyResult, idx: int, anchor: str, v: Verdict) -> None:
     ref_engine = p.get("reference_engine")
     ref_value = _f(cfg.get("reference"))
     ok = df[df["status"] == "ok"]
-    minima = {str(e): _f(m) for e, m in zip(ok["engine"], ok[mcol], strict=True) if _f(m) is not None}
+    minima = {str(e): x for e, m in zip(ok["engine"], ok[mcol], strict=True) if (x := _f(m)) is not None}
     between = False
     if ref_value is not None:
         ref = ref_value

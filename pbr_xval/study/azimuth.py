@@ -31,7 +31,7 @@ import json
 import math
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, cast
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -39,6 +39,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
+
+if TYPE_CHECKING:
+    from matplotlib.projections.polar import PolarAxes
 
 __all__ = ["AzimuthConfig", "pga_of", "run"]
 
@@ -176,7 +179,7 @@ def run(
         v_bound = v0 * bound / p1
         lo, hi = (
             (config.lo, config.hi)
-            if config.lo is not None
+            if config.lo is not None and config.hi is not None  # given together (validated)
             else (config.range_over_bound[0] * v_bound, config.range_over_bound[1] * v_bound)
         )
         per_dir.append(
@@ -410,7 +413,8 @@ def _figure(table: Any, bound: Any, name: str, param: str) -> Figure:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(6.4, 6.4))
+    fig, ax0 = plt.subplots(subplot_kw={"projection": "polar"}, figsize=(6.4, 6.4))
+    ax = cast("PolarAxes", ax0)  # projection="polar" makes a PolarAxes; the stub says Axes
     ax.set_theta_zero_location("E")
     ax.set_theta_direction(1)
     phi_b = np.radians(np.append(bound["phi_deg"].to_numpy(float), 360.0))

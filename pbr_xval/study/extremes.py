@@ -566,7 +566,7 @@ def run(
                 settings = dict(cfg.settings.get(label, {}))
                 default = eng.default_settings()
                 settings.update({k: v for k, v in c.settings.items() if k in default})
-                runs = []
+                runs: list[dict[str, Any]] = []
                 for _, scn in _runs_for(c):
                     d, s = scenario_payload(scn)
                     runs.append({"scenario": d, "source": s, "settings": settings})

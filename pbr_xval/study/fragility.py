@@ -179,9 +179,9 @@ def run(
                     "versions": {},
                 }
             else:
-                results[i] = run_cell(data, base_dir, eng, config.settings.get(eng), config.clamp)
-                if results[i]["status"] == "skipped" and results[i]["message"].startswith("not available"):
-                    skip_engine[eng] = results[i]["message"]
+                cell = results[i] = run_cell(data, base_dir, eng, config.settings.get(eng), config.clamp)
+                if cell["status"] == "skipped" and cell["message"].startswith("not available"):
+                    skip_engine[eng] = cell["message"]
             report(i, i + 1)
     else:
         import multiprocessing as mp
@@ -193,7 +193,7 @@ def run(
                 pool.submit(run_cell, data, base_dir, eng, config.settings.get(eng), config.clamp): i
                 for i, (_, eng, _, _, data) in enumerate(jobs)
             }
-            for k, fut in enumerate(as_completed(futs)):
+            for n_done, fut in enumerate(as_completed(futs)):
                 i = futs[fut]
                 try:
                     results[i] = fut.result()
@@ -207,7 +207,7 @@ def run(
                         "settings": {},
                         "versions": {},
                     }
-                report(i, k + 1)
+                report(i, n_done + 1)
 
     rows = []
     settings_used: dict[str, Any] = {}
@@ -240,9 +240,9 @@ def run(
         if (sub["status"] == "skipped").all():
             notes.append(f"{eng}: skipped ({sub['message'].iloc[0]})")
         elif (sub["status"] == "failed").any():
-            k = int((sub["status"] == "failed").sum())
+            n_failed = int((sub["status"] == "failed").sum())
             notes.append(
-                f"{eng}: FAILED in {k} of {len(sub)} cells (first: {sub[sub['status'] == 'failed']['message'].iloc[0]})"
+                f"{eng}: FAILED in {n_failed} of {len(sub)} cells (first: {sub[sub['status'] == 'failed']['message'].iloc[0]})"
             )
 
     agreement = _agreement(cells, ref, [_variant_label(v) for v in variants], order)

@@ -214,7 +214,7 @@ def _variants(cfg: TradeoffConfig, name: str, eng: Any) -> list[tuple[float | No
         if prof not in profiles:
             continue
         for ex in extras:
-            dts: list[float | None] = sorted(cfg.timesteps, reverse=True) if has_dt else [None]
+            dts: list[float | None] = [*sorted(cfg.timesteps, reverse=True)] if has_dt else [None]
             for dt in dts:
                 out.append((dt, prof, ex))
     return out
@@ -513,13 +513,13 @@ def run(
                 "wall_s_per_sim": rr["wall_s_per_sim"],
             }
         )
-    for eng, by_b in cells.items():  # one line per engine; budgets sharing a setting merged
+    for eng_name, by_b in cells.items():  # one line per engine; budgets sharing a setting merged
         groups: dict[str, list[float]] = {}
         for b in budgets:
             if b in by_b:
                 groups.setdefault(by_b[b], []).append(b)
         parts = [f"≤ {', '.join(f'{b:.1%}' for b in bs)}: {text}" for text, bs in groups.items()]
-        result.summary.append(f"{eng}: " + "; ".join(parts))
+        result.summary.append(f"{eng_name}: " + "; ".join(parts))
     n_skip = int((df["status"] == "skipped").sum())
     bad = df[~df["status"].isin(["ok", "skipped"])]
     if n_skip:

@@ -125,13 +125,13 @@ def evaluate(
     rules_all = {}
     for name, fs in BASELINE_RULES.items():
         if k >= 2:
-            pred, _ = out_of_fold(feats, observed, fs, out["fold"].to_numpy())
+            rule_pred, _ = out_of_fold(feats, observed, fs, out["fold"].to_numpy())
             where = f"out of fold ({k}-fold by record)"
         else:
-            pred = fit_rule(feats, observed, fs).predict(feats)
+            rule_pred = fit_rule(feats, observed, fs).predict(feats)
             where = "in sample (fewer than 2 records: no held-out part)"
-        out[f"pred_{name}"] = pred.astype(int)
-        s = score(observed, pred)
+        out[f"pred_{name}"] = rule_pred.astype(int)
+        s = score(observed, rule_pred)
         score_rows.append({"model": name, "kind": "empirical", "evaluated_on": where, **s.to_dict()})
         rules_all[name] = fit_rule(feats, observed, fs).describe(FEATURE_UNITS)
     return ValidationResult(
