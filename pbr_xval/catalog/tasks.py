@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pbr_xval.atomic import write_bytes_atomic
 from pbr_xval.jsonio import jsonable
 from pbr_xval.status import RunStatus
 
@@ -209,10 +210,7 @@ def synthetic_mesh_file(rock: dict[str, Any]) -> str:
             subdivisions=params["subdivisions"],
             target_alpha_deg=params["target_alpha_deg"],
         )
-        fd, tmp = tempfile.mkstemp(prefix=".synth_", suffix=".ply", dir=d)
-        os.close(fd)
-        mesh.export(tmp)
-        os.replace(tmp, path)
+        write_bytes_atomic(path, mesh.export(file_type="ply"), hidden=True)
     _MESH_CACHE[key] = str(path)
     return str(path)
 

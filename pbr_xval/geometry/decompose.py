@@ -10,13 +10,14 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import trimesh
+
+from pbr_xval.atomic import atomic_file
 
 __all__ = ["cache_dir_default", "convex_parts", "decomposition_report"]
 
@@ -91,12 +92,9 @@ def convex_parts(
         parts.append(m)
         arrays[f"v{i}"], arrays[f"f{i}"] = np.asarray(m.vertices), np.asarray(m.faces)
     try:
-        cdir.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".coacd_", suffix=".npz", dir=cdir)
-        with os.fdopen(fd, "wb") as fh:
+        with atomic_file(path, "wb", hidden=True) as fh:
             # numpy's stub lets **kwds fill the keyword allow_pickle: bool (a stub gap; keys are part names)
             np.savez(fh, **arrays)  # type: ignore[arg-type]
-        os.replace(tmp, path)
     except OSError:  # a read-only cache is not an error
         pass
     return parts

@@ -394,19 +394,9 @@ def stability_table(vertices: np.ndarray, com: np.ndarray, n_directions: int = 7
 
 
 def _atomic_savefig(fig: Any, path: Path, **kw: Any) -> None:
-    import os
-    import tempfile
+    from pbr_xval.atomic import write_figure_atomic
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, **kw)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    write_figure_atomic(path, fig, **kw)
 
 
 #: how φ is measured, stated on every polar plot

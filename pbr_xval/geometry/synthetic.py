@@ -14,8 +14,6 @@ height). :func:`write_point_cloud` writes PLY or XYZ. Same seed → identical by
 
 from __future__ import annotations
 
-import os
-import tempfile
 from itertools import product
 from pathlib import Path
 from typing import Any
@@ -23,6 +21,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from pbr_xval.atomic import write_bytes_atomic
 from pbr_xval.geometry.stability import hull_vertices, support_lever
 
 __all__ = ["SYNTHETIC_ROCK_KEYS", "simulate_scan", "synthetic_rock", "write_point_cloud"]
@@ -195,9 +194,4 @@ def write_point_cloud(points: np.ndarray, path: str | Path) -> Path:
         data = ("\n".join(lines) + "\n").encode("ascii")
     else:
         raise ValueError(f"{path}: unsupported point-cloud format {ext!r}; expected .ply, .xyz, .txt or .csv")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".pc_", suffix=ext, dir=path.parent)
-    with os.fdopen(fd, "wb") as fh:
-        fh.write(data)
-    os.replace(tmp, path)
-    return path
+    return write_bytes_atomic(path, data)
