@@ -37,8 +37,9 @@ def jsonable(v: Any, *, default: Callable[[Any], Any] | None = None) -> Any:
     """
     if isinstance(v, bool | int | str) or v is None:
         return v
-    if isinstance(v, float):
-        return v if math.isfinite(v) else repr(v)
+    if isinstance(v, float):  # numpy's float64 is a float subclass: convert it to a plain float
+        x = float(v)
+        return x if math.isfinite(x) else repr(x)
     np = sys.modules.get("numpy")
     if np is not None and isinstance(v, np.generic):
         return jsonable(v.item(), default=default)
