@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
+from pbr_xval.status import RunStatus
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -426,7 +427,7 @@ class ReferenceEngine(EngineBase):
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
         if message:
             traj.events.append(Event("failed", t, {"reason": message}))
-            traj.status = "failed"
+            traj.status = RunStatus.FAILED
             traj.message = message
         return traj
 
