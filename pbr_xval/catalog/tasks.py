@@ -24,7 +24,7 @@ import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from pbr_xval.atomic import write_bytes_atomic
 from pbr_xval.jsonio import jsonable
@@ -210,7 +210,7 @@ def synthetic_mesh_file(rock: dict[str, Any]) -> str:
             subdivisions=params["subdivisions"],
             target_alpha_deg=params["target_alpha_deg"],
         )
-        write_bytes_atomic(path, mesh.export(file_type="ply"), hidden=True)
+        write_bytes_atomic(path, cast(bytes, mesh.export(file_type="ply")), hidden=True)  # binary PLY
     _MESH_CACHE[key] = str(path)
     return str(path)
 
