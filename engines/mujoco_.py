@@ -236,7 +236,9 @@ class MuJoCoEngine(EngineBase):
         if kind in ("primitive", "boxes"):
             if kind == "primitive":  # collision_parts gives these kinds only when they exist
                 assert rock.primitive is not None
-                boxes = [(rock.mesh.bounds.mean(axis=0), rock.primitive["half_extents"])]
+                boxes: list[tuple[Any, Any]] = [
+                    (rock.mesh.bounds.mean(axis=0), rock.primitive["half_extents"])
+                ]
                 info.update(collision="box primitive", parts=1)
             else:
                 assert rock.box_parts is not None
