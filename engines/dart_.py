@@ -200,7 +200,9 @@ class DartEngine(EngineBase):
         ped = scene.pedestal
         if ped["kind"] in ("plane", "box"):
             plane = ped["kind"] == "plane"
-            he = np.asarray(ped["half_extents"] if ped["kind"] == "box" else s["plane_half_extents"], dtype=float)
+            he = np.asarray(
+                ped["half_extents"] if ped["kind"] == "box" else s["plane_half_extents"], dtype=float
+            )
             desc = "box standing in for the plane" if plane else "box"
             return D.BoxShape(2.0 * he), np.array([0.0, 0.0, -he[2]]), desc
         if ped["kind"] == "mesh":

@@ -9,13 +9,11 @@ The model is built with :class:`mujoco.MjSpec` from the :class:`~pbr_xval.scene.
 * mass properties always explicit from the scene (``inertiafromgeom`` false): the body frame
   is the scene frame translated to the COM, the inertial frame is the principal frame
   (diagonalised here), so the body orientation *is* the rotation relative to the rest pose;
-* pedestal: a plane geom (box when it must move) or a box with its top at z = 0;
-* ground motion as an inertial load (gravity tilted to (−a_x, −a_y, −g − a_z) at mid-step,
-  the default) or a pedestal body on slide joints whose qpos/qvel are overridden every step
-  with ``qfrc_applied = M·a`` (notes §3; never mocap).
+* pedestal: a plane geom (box when it must move) or a box with its top at z = 0; ground motion
+  as an inertial load (gravity (−a_x, −a_y, −g − a_z) at mid-step, the default) or a pedestal
+  on slide joints, qpos/qvel overridden every step with ``qfrc_applied = M·a`` (never mocap).
 
-Measured ground truth and pitfalls: ``/work/shared/notes/engines_pybullet_mujoco.md``.
-``mujoco`` is imported lazily: importing this module does not import the engine.
+Pitfalls: ``shared/notes/engines_pybullet_mujoco.md``. ``mujoco`` is imported lazily.
 """
 
 from __future__ import annotations
@@ -370,7 +368,7 @@ class _MjStepper(StepperBase):
         step, quat2mat = mj.mj_step, mj.mju_quat2Mat
         pos, quat, wbody = self.pos, self.quat, self.wbody
         com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        moving, grav, gseq = self.moving, m.opt.gravity, getattr(self, "grav_seq", None)
+        moving, grav, gseq = self.moving, m.opt.gravity, getattr(self, "grav_seq", ())
         i = 0
         try:
             for i, k in enumerate(range(k0, k1)):

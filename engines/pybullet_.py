@@ -334,7 +334,7 @@ class _PbStepper(StepperBase):
         p, cid, ped, axes = self.p, self.cid, self.ped, self.axes
         step, read = p.stepSimulation, self._read
         com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        moving, setg, drive = self.moving, p.setGravity, getattr(self, "drive", None)
+        moving, setg, drive = self.moving, p.setGravity, getattr(self, "drive", ())
         reset_joint, push, world = p.resetJointState, p.applyExternalForce, p.WORLD_FRAME
         for i, k in enumerate(range(k0, k1)):
             if moving:

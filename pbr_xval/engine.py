@@ -66,9 +66,6 @@ KNOWN_ENGINES: dict[str, str] = {
 }
 
 
-
-
-
 @dataclass(frozen=True)
 class Capabilities:
     """What an engine can model; conformance checks and studies adapt to these tags.

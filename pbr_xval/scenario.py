@@ -68,7 +68,6 @@ Vec3Pos = Annotated[list[PositiveFloat], Field(min_length=3, max_length=3)]
 Vec3 = Annotated[list[Finite], Field(min_length=3, max_length=3)]
 
 
-
 class Strict(BaseModel):
     """Base of every scenario table: unknown keys are errors, assignments are validated."""
 
@@ -289,7 +288,9 @@ class _RecordSource(Strict):
         validate_default=True,
         description="acceleration units of a table or npz array (required: never guessed); AT2 is g",
     )
-    dt: PositiveFloat | None = Field(None, description="sample interval, s (tables without a time column, npz)")
+    dt: PositiveFloat | None = Field(
+        None, description="sample interval, s (tables without a time column, npz)"
+    )
     column: str | Annotated[int, Field(ge=0)] | None = Field(
         None, description="table: the acceleration column, by header name or 0-based index"
     )
@@ -322,7 +323,9 @@ class _RecordSource(Strict):
 class RecordComponent(_RecordSource):
     """The second horizontal component of a two-component record (``excitation.second``)."""
 
-    component_azimuth_deg: Finite = Field(description="direction of this component, degrees from +x toward +y")
+    component_azimuth_deg: Finite = Field(
+        description="direction of this component, degrees from +x toward +y"
+    )
 
 
 class RecordMotion(_MotionBase, _RecordSource):
@@ -356,7 +359,11 @@ class RecordMotion(_MotionBase, _RecordSource):
                 "a two-component record needs 'component_azimuth_deg' for the first component "
                 "(and 'second.component_azimuth_deg')"
             )
-        if self.highpass_hz is not None and self.lowpass_hz is not None and self.highpass_hz >= self.lowpass_hz:
+        if (
+            self.highpass_hz is not None
+            and self.lowpass_hz is not None
+            and self.highpass_hz >= self.lowpass_hz
+        ):
             raise ValueError(
                 f"highpass_hz = {self.highpass_hz} must be below lowpass_hz = {self.lowpass_hz} (a band-pass)"
             )
@@ -464,7 +471,8 @@ class Toppling(Strict):
     angle_deg: Annotated[float, Field(gt=0, lt=180)] | None = None
     distance: PositiveFloat | None = None
     down_angle_deg: Annotated[float, Field(gt=0, le=180)] = Field(
-        90.0, description="physical criterion: tilt at which the rock is down whatever the ground does, degrees"
+        90.0,
+        description="physical criterion: tilt at which the rock is down whatever the ground does, degrees",
     )
     stop_on_topple: bool = True
 

@@ -335,7 +335,7 @@ class Scene:
 
         For ``criterion = "physical"`` this answers "is the rock down" (tilt ≥ the down angle);
         the physical decision itself needs the history and is taken by the engines' recorder
-        (:class:`pbr_xval.engines._common.Recorder`) and the analytical integrators.
+        (:class:`pbr_xval.stepping.Recorder`) and the analytical integrators.
 
         Parameters
         ----------
@@ -348,7 +348,7 @@ class Scene:
         top = rot[:, 2]
         tilt = math.acos(max(-1.0, min(1.0, float(top[2]))))
         if crit.criterion == "tilt_angle":
-            return tilt >= math.radians(crit.angle_deg)
+            return tilt >= math.radians(float(crit.angle_deg or 0.0))  # set: validated by Toppling
         if crit.criterion == "physical":
             return tilt >= math.radians(crit.down_angle_deg)
         if tilt < 1e-9:

@@ -176,7 +176,7 @@ class Recorder:
         if crit.criterion == "critical_tilt":
             fast = crit.factor * alpha_min
         elif crit.criterion == "tilt_angle":
-            fast = math.radians(crit.angle_deg)
+            fast = math.radians(float(crit.angle_deg or 0.0))  # set: validated by Toppling
         elif crit.criterion == "physical":
             # below the smallest critical tilt nothing can be decided (and the rock is not down)
             fast = min(alpha_min, math.radians(crit.down_angle_deg))

@@ -132,7 +132,7 @@ class HousnerEngine(EngineBase):
         if crit.criterion == "critical_tilt":
             factor = crit.factor
         elif crit.criterion == "tilt_angle":
-            factor = math.radians(crit.angle_deg) / min(body.alpha("left"), body.alpha("right"))
+            factor = math.radians(float(crit.angle_deg or 0.0)) / min(body.alpha("left"), body.alpha("right"))
         eta = _impact_ratio(s)
         sol = simulate_rocking(
             body,
@@ -276,6 +276,7 @@ class CurvedBaseEngine(EngineBase):
         if rock.density is not None:
             lam = CurvedBaseLamina(rock.H, rock.r, rock.h, depth=rock.depth, density=rock.density)
         else:
+            assert rock.mass is not None  # the scenario requires density or mass
             area_depth = lam.mass  # density 1 → volume
             lam = CurvedBaseLamina(rock.H, rock.r, rock.h, depth=rock.depth, density=rock.mass / area_depth)
         accel, accel_v, bps = _drive(scene)

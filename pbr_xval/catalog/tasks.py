@@ -324,7 +324,9 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
             row.update(status=RunStatus.NOT_APPLICABLE, message=str(exc), wall_s=time.perf_counter() - t0)
         except Exception as exc:  # a run's error is a row, not a crash of the chunk
             row.update(
-                status=RunStatus.ERROR, message=f"{type(exc).__name__}: {exc}", wall_s=time.perf_counter() - t0
+                status=RunStatus.ERROR,
+                message=f"{type(exc).__name__}: {exc}",
+                wall_s=time.perf_counter() - t0,
             )
         rows.append(row)
     versions = eng.versions() if hasattr(eng, "versions") else {}

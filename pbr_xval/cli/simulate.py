@@ -172,13 +172,19 @@ def threshold(
     param: Annotated[str, typer.Option(help="dotted scenario key to search")] = "excitation.amplitude",
     lo: Annotated[
         float | None,
-        typer.Option(help="lower end of the scan (default: the uplift bound g·tan α where it applies, else 0.5× the scenario value)"),
+        typer.Option(
+            help="lower end of the scan (default: the uplift bound g·tan α where it applies, else 0.5× the scenario value)"
+        ),
     ] = None,
     hi: Annotated[
         float | None, typer.Option(help="upper end of the scan (default 2× the scenario value)")
     ] = None,
-    n_grid: Annotated[int, typer.Option(help="coarse scan points (≥ 2); refined where the response nears toppling")] = 8,
-    rel_tol: Annotated[float, typer.Option(help="relative bracket width at which each transition is narrowed")] = 1e-3,
+    n_grid: Annotated[
+        int, typer.Option(help="coarse scan points (≥ 2); refined where the response nears toppling")
+    ] = 8,
+    rel_tol: Annotated[
+        float, typer.Option(help="relative bracket width at which each transition is narrowed")
+    ] = 1e-3,
     set_: SetOpt = None,
     profile: ProfileOpt = None,
     json_out: Annotated[Path | None, typer.Option("--json", help="also write the result as JSON")] = None,

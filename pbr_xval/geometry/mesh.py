@@ -75,4 +75,3 @@ def load_mesh(path: str | Path, *, units: str = "m") -> tuple[trimesh.Trimesh, d
         "repairs": repairs,
     }
     return mesh, info
-
