@@ -231,7 +231,11 @@ def test_notched_block() -> None:
     assert nb.p("right", G) == pytest.approx(3.3706, abs=1e-4)
     assert nb.impact_ratio("left") == pytest.approx(0.8665, abs=5e-4)
     thr = bisect(lambda a: _topples_halfsine(nb, "exact", a, nb.uplift_accel("left", G)), 5.05, 5.2, 2e-3)
-    assert thr == pytest.approx(5.1241, rel=1e-3)
+    # independent reference: conformance.PlanarBlock, an exact two-pivot ODE with closed-form mass
+    # properties written without pbr_xval.analytical (5.12410 m/s²); bisection tolerance 2e-3 m/s²
+    from pbr_xval.conformance import notched_reference
+
+    assert thr == pytest.approx(notched_reference()["threshold"], abs=2.5e-3)
 
 
 def test_notched_block_free_rocking_ratio_in_simulation() -> None:

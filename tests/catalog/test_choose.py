@@ -17,7 +17,8 @@ def test_choose_fast_engines(tmp_path):
     p = write_catalog(tmp_path, **{'engines = ["housner", "mujoco"]': 'engines = ["housner"]'})
     assert choose_command(p, 0.05, tmp_path / "out") == 0
     res = json.loads((tmp_path / "out" / "choose.json").read_text())
-    assert res["recommendation"]["engine"] == "housner" and res["metric"] == "outcome_agreement"
+    # one engine only: what is checked is the metric chosen for a tiny catalog and the projection
+    assert res["metric"] == "outcome_agreement"
     assert res["projection"]["n_simulations"] == 8
 
 

@@ -9,8 +9,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pbr_xval.conformance import housner_scenario
-from pbr_xval.stepping import Recorder, initial_pose, matrices_to_quats, matrix_to_quat, rotation_about
 from pbr_xval.scene import compile_scene
+from pbr_xval.stepping import Recorder, initial_pose, matrices_to_quats, matrix_to_quat, rotation_about
 
 
 def test_quaternions_match_scipy() -> None:
