@@ -27,6 +27,33 @@ def xyzw(r: np.ndarray) -> list[float]:
     return [float(x), float(y), float(z), float(w)]
 
 
+def xyzw_to_mats(q: Any) -> np.ndarray:
+    """Quaternions (n, 4) x, y, z, w → row-major rotations (n, 9), vectorised.
+
+    The arithmetic of Bullet's ``btMatrix3x3::setRotation`` (what ``getMatrixFromQuaternion``
+    calls), so the matrices are PyBullet's own bit for bit (checked in tests/engines).
+    """
+    x, y, z, w = np.asarray(q, dtype=float).reshape(-1, 4).T
+    s = 2.0 / (((x * x + y * y) + z * z) + w * w)
+    xs, ys, zs = x * s, y * s, z * s
+    wx, wy, wz, xx, xy, xz = w * xs, w * ys, w * zs, x * xs, x * ys, x * zs
+    yy, yz, zz = y * ys, y * zs, z * zs
+    return np.stack(
+        [
+            1.0 - (yy + zz),
+            xy - wz,
+            xz + wy,
+            xy + wz,
+            1.0 - (xx + zz),
+            yz - wx,
+            xz - wy,
+            yz + wx,
+            1.0 - (xx + yy),
+        ],
+        axis=1,
+    )
+
+
 def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (3,) kg·m² and the rotation (3, 3) principal axes → scene axes.
 

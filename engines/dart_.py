@@ -315,6 +315,8 @@ class DartEngine(EngineBase):
 class _DartStepper(StepperBase):
     """DART side of :func:`pbr_xval.stepping.run_steps` (one World per run)."""
 
+    samples_only = True  # reads the state at the output samples only (StepBlock.keep)
+
     def __init__(
         self, dart: Any, world: Any, scene: Scene, fj: Any, body: Any, rskel: Any, pj: Any, moving: bool
     ) -> None:
@@ -336,11 +338,7 @@ class _DartStepper(StepperBase):
 
     def state(self) -> tuple[np.ndarray, np.ndarray, float]:
         T, b = self.body.getTransform(), self.body
-        size = float(np.ptp(self.scene.rock.mesh.vertices))
-        speed = (
-            float(np.linalg.norm(b.getLinearVelocity()))
-            + float(np.linalg.norm(b.getAngularVelocity())) * size
-        )
+        speed = self.speed(b.getLinearVelocity(), b.getAngularVelocity(), self.scene)
         return T.translation(), T.rotation(), speed
 
     def begin(self, n: int) -> None:
@@ -365,20 +363,22 @@ class _DartStepper(StepperBase):
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
         world, body, pj, moving, acc, grav = self.world, self.body, self.pj, self.moving, self.acc, self.grav
-        rskel, fast, grav_l = self.rskel, self.fast_omega, self.grav_l
-        ncon, pen, n = block.ncon, block.pen, k1 - k0
-        if len(self.mat) < n:  # pose (4, 4), velocities (6,), pedestal position (3,) per step
+        rskel, fast, grav_l, keep = self.rskel, self.fast_omega, self.grav_l, block.keep
+        ncon, pen, n = block.ncon, block.pen, block.size
+        if len(self.mat) < n:  # pose (4, 4), velocities (6,), pedestal position (3,) per row
             self.mat, self.vel, self.ppos = np.zeros((n, 4, 4)), np.zeros((n, 6)), np.zeros((n, 3))
         mat, vel, ppos = self.mat, self.vel, self.ppos
         i = 0
         try:
-            for i, k in enumerate(range(k0, k1)):
+            for k in range(k0, k1):
                 if moving:
                     pj.setCommands(acc[k])
                 elif grav_l[k] != self.last:
                     world.setGravity(grav[k])
                     self.last = grav_l[k]
                 world.step()
+                if keep is not None and not keep[k]:
+                    continue  # between samples: nothing read
                 mat[i] = body.getTransform().matrix()
                 if moving:
                     ppos[i] = pj.getPositions()
@@ -389,7 +389,7 @@ class _DartStepper(StepperBase):
                 contacts = world.getLastCollisionResult().getContacts()
                 ncon[i] = len(contacts)
                 pen[i] = max([c.penetrationDepth for c in contacts], default=0.0)
-            i = n
+                i += 1
         finally:
             block.n = i
             block.com[:i] = mat[:i, :3, 3]

@@ -303,6 +303,8 @@ class MuJoCoEngine(EngineBase):
 class _MjStepper(StepperBase):
     """MuJoCo side of :func:`pbr_xval.stepping.run_steps` (one MjData per run)."""
 
+    samples_only = True  # reads the state at the output samples only (StepBlock.keep)
+
     def __init__(self, mujoco: Any, m: Any, scene: Scene, s: dict[str, Any], info: dict[str, Any]) -> None:
         self.mj, self.m, self.scene, self.s = mujoco, m, scene, s
         self.d = d = mujoco.MjData(m)
@@ -310,13 +312,15 @@ class _MjStepper(StepperBase):
         self.moving = bool(info["moving"])
         rock_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "rock")
         jr = m.body_jntadr[rock_id]
-        qa, va = int(m.jnt_qposadr[jr]), int(m.jnt_dofadr[jr])
+        self.qa, self.va = qa, va = int(m.jnt_qposadr[jr]), int(m.jnt_dofadr[jr])
+        self.qb, self.vb = np.zeros((0, m.nq)), np.zeros((0, m.nv))
         self.pos, self.quat = d.qpos[qa : qa + 3], d.qpos[qa + 3 : qa + 7]
         self.vlin, self.wbody = d.qvel[va : va + 3], d.qvel[va + 3 : va + 6]
         self.npj = 3 if scene.excitation.vertical is not None else 2
         if self.moving:
             j0 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ped0")
             pq, pv = int(m.jnt_qposadr[j0]), int(m.jnt_dofadr[j0])
+            self.pq = pq
             self.pqs, self.pvs = d.qpos[pq : pq + self.npj], d.qvel[pv : pv + self.npj]
             self.pfs = d.qfrc_applied[pv : pv + self.npj]
         mujoco.mj_resetData(m, d)
@@ -334,21 +338,15 @@ class _MjStepper(StepperBase):
             mj.mj_step(m, d, n)  # native multi-step: gravity only, no per-step drive
         elif n:
             for _ in range(n):  # hold the pedestal at rest
-                self.pqs[:] = 0.0
-                self.pvs[:] = 0.0
+                self.pqs[:] = self.pvs[:] = 0.0
                 mj.mj_step(m, d)
-            self.pqs[:] = 0.0
-            self.pvs[:] = 0.0
+            self.pqs[:] = self.pvs[:] = 0.0
 
     def state(self) -> tuple[np.ndarray, np.ndarray, float]:
-        mat9 = np.zeros(9)
-        self.mj.mju_quat2Mat(mat9, self.quat)
-        finite = bool(np.all(np.isfinite(self.d.qpos)))
-        return (
-            self.pos.copy(),
-            mat9.reshape(3, 3),
-            self.speed(self.vlin, self.wbody, self.scene) if finite else math.inf,
+        speed = (
+            self.speed(self.vlin, self.wbody, self.scene) if np.all(np.isfinite(self.d.qpos)) else math.inf
         )
+        return self.pos.copy(), stepping.quats_to_mats(self.quat[None])[0].reshape(3, 3), speed
 
     def begin(self, n: int) -> None:
         scene, dt, npj = self.scene, self.dt, self.npj
@@ -361,36 +359,38 @@ class _MjStepper(StepperBase):
             self.frc = float(self.s["pedestal_mass"]) * acc_mid[:, :npj]
             self.vlin += scene.excitation.velocity(0.0)  # the rock moves with the pedestal at t = 0
         else:
-            self.grav_seq = stepping.gravity_sequence(scene, tk + 0.5 * dt).tolist()
+            g = stepping.gravity_sequence(scene, tk + 0.5 * dt)
+            self.grav_xyz = (g[:, 0].tolist(), g[:, 1].tolist(), g[:, 2].tolist())  # floats: no GC load
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
-        mj, m, d, npj = self.mj, self.m, self.d, self.npj
-        step, quat2mat = mj.mj_step, mj.mju_quat2Mat
-        pos, quat, wbody = self.pos, self.quat, self.wbody
-        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        moving, grav, gseq = self.moving, m.opt.gravity, getattr(self, "grav_seq", ())
+        m, d, step, keep, moving = self.m, self.d, self.mj.mj_step, block.keep, self.moving
+        grav = m.opt.gravity
+        if self.qb.shape[0] < block.size:  # raw qpos / qvel rows, converted once per block
+            self.qb, self.vb = np.zeros((block.size, m.nq)), np.zeros((block.size, m.nv))
+        qb, vb, qpos, qvel, ncon, pen = self.qb, self.vb, d.qpos, d.qvel, block.ncon, block.pen
+        gx, gy, gz = getattr(self, "grav_xyz", ((), (), ()))
         i = 0
         try:
-            for i, k in enumerate(range(k0, k1)):
+            for k in range(k0, k1):
                 if moving:
-                    self.pqs[:] = self.disp[k]
-                    self.pvs[:] = self.vel[k]
-                    self.pfs[:] = self.frc[k]
+                    self.pqs[:], self.pvs[:], self.pfs[:] = self.disp[k], self.vel[k], self.frc[k]
                 else:
-                    grav[0], grav[1], grav[2] = gseq[k]
+                    grav[0], grav[1], grav[2] = gx[k], gy[k], gz[k]
                 step(m, d)
-                com[i] = pos
-                if moving:
-                    com[i, :npj] -= self.pqs
-                quat2mat(rot[i], quat)
-                om[i] = wbody
-                nc = ncon[i] = d.ncon
-                pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
-            i = k1 - k0
+                if keep is None or keep[k]:  # a sample (or every step): pose, velocity, contacts
+                    qb[i], vb[i] = qpos, qvel
+                    nc = ncon[i] = d.ncon
+                    pen[i] = -min(d.contact.dist.tolist()) if nc else 0.0
+                    i += 1
         finally:
             block.n = n = i  # rows complete (a step that raised is not one)
+            qa, va = self.qa, self.va
+            block.com[:n] = qb[:n, qa : qa + 3]
+            if moving:
+                block.com[:n, : self.npj] -= qb[:n, self.pq : self.pq + self.npj]
+            rot = block.rot[:n] = stepping.quats_to_mats(qb[:n, qa + 3 : qa + 7])
             # ω in the pedestal frame = R ω_body, one stacked product per block
-            om[:n] = np.matmul(rot[:n].reshape(n, 3, 3), om[:n, :, None])[:, :, 0]
+            block.omega[:n] = np.matmul(rot.reshape(n, 3, 3), vb[:n, va + 3 : va + 6, None])[:, :, 0]
 
     def end(self) -> None:
         if self.moving:

@@ -40,7 +40,7 @@ from pbr_xval.stepping import (
 )
 
 from ._common import COLLISION_CHOICES, check_choices
-from ._pybullet_model import pedestal, principal_frame, rock_shape, xyzw
+from ._pybullet_model import pedestal, principal_frame, rock_shape, xyzw, xyzw_to_mats
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -261,6 +261,8 @@ class PyBulletEngine(EngineBase):
 class _PbStepper(StepperBase):
     """PyBullet side of :func:`pbr_xval.stepping.run_steps` (one physics client per run)."""
 
+    samples_only = True  # reads the state at the output samples only (StepBlock.keep)
+
     def __init__(
         self, p: Any, cid: int, scene: Scene, s: Mapping[str, Any], body: int, ped: int, rot0: np.ndarray,
         moving: bool, axes: int,
@@ -310,7 +312,8 @@ class _PbStepper(StepperBase):
             self.dpos[:, : self.axes] = disp
             self.dpos_l, self.disp_l = self.dpos.tolist(), disp.tolist()
         else:
-            self.drive = gravity_sequence(self.scene, (np.arange(n) + 0.5) * dt).tolist()
+            g = gravity_sequence(self.scene, (np.arange(n) + 0.5) * dt)
+            self.drive = (g[:, 0].tolist(), g[:, 1].tolist(), g[:, 2].tolist())  # floats: no GC load
 
     def sample(self, block: StepBlock) -> None:
         block.n = 0
@@ -331,23 +334,39 @@ class _PbStepper(StepperBase):
         pen[i] = max(0.0, -min(c[8] for c in cps)) if cps else 0.0
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
-        p, cid, ped, axes = self.p, self.cid, self.ped, self.axes
-        step, read = p.stepSimulation, self._read
-        com, rot, om, ncon, pen = block.com, block.rot, block.omega, block.ncon, block.pen
-        moving, setg, drive = self.moving, p.setGravity, getattr(self, "drive", ())
+        p, cid, ped, axes, body, keep = self.p, self.cid, self.ped, self.axes, self.body, block.keep
+        step, pose, vel, gcp = (
+            p.stepSimulation,
+            p.getBasePositionAndOrientation,
+            p.getBaseVelocity,
+            p.getContactPoints,
+        )
+        ncon, pen, moving, setg = block.ncon, block.pen, self.moving, p.setGravity
+        gx, gy, gz = getattr(self, "drive", ((), (), ()))
         reset_joint, push, world = p.resetJointState, p.applyExternalForce, p.WORLD_FRAME
-        for i, k in enumerate(range(k0, k1)):
-            if moving:
-                dk, vk = self.disp_l[k], self.vel[k]
-                for j in range(axes):
-                    reset_joint(ped, j, dk[j], vk[j], physicsClientId=cid)
-                if self.vertical:
-                    push(ped, axes - 1, self.lift, self.dpos_l[k], world, physicsClientId=cid)
-            else:
-                gx, gy, gz = drive[k]
-                setg(gx, gy, gz, physicsClientId=cid)
-            step(physicsClientId=cid)
-            read(i, com, rot, om, ncon, pen)
-            if moving:
-                com[i] -= self.dpos[k + 1]
-            block.n = i + 1
+        P, Q, W, K = [None] * block.size, [None] * block.size, [None] * block.size, [0] * block.size
+        i = 0
+        try:
+            for k in range(k0, k1):
+                if moving:
+                    dk, vk = self.disp_l[k], self.vel[k]
+                    for j in range(axes):
+                        reset_joint(ped, j, dk[j], vk[j], physicsClientId=cid)
+                    if self.vertical:
+                        push(ped, axes - 1, self.lift, self.dpos_l[k], world, physicsClientId=cid)
+                else:
+                    setg(gx[k], gy[k], gz[k], physicsClientId=cid)
+                step(physicsClientId=cid)
+                if keep is None or keep[k]:  # a sample (or every step): raw tuples, converted per block
+                    P[i], Q[i] = pose(body, physicsClientId=cid)
+                    W[i], K[i] = vel(body, physicsClientId=cid)[1], k + 1
+                    cps = gcp(body, physicsClientId=cid)
+                    nc = ncon[i] = len(cps)
+                    pen[i] = max(0.0, -min([c[8] for c in cps])) if nc else 0.0
+                    i += 1
+        finally:
+            block.n = n = i
+            if n:
+                block.com[:n], block.rot[:n], block.omega[:n] = P[:n], xyzw_to_mats(Q[:n]), W[:n]
+                if moving:
+                    block.com[:n] -= self.dpos[K[:n]]

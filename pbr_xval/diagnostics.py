@@ -286,34 +286,50 @@ def impact_times(t: np.ndarray, theta: np.ndarray, tol: float) -> np.ndarray:
     landing sample and the one before it, or after it while |θ| stays within tol; the landing
     sample's time when the rock came back without crossing.
     """
+    import bisect
+
     t = np.asarray(t, dtype=float)
     th = np.asarray(theta, dtype=float)
     n = th.size
     out: list[float] = []
+    # the rule below jumps between the samples where something can happen (index lists searched
+    # with bisect) instead of visiting every sample; NaN compares False exactly as element-wise
+    with np.errstate(invalid="ignore"):
+        big = np.abs(th) > tol
+        prev = np.concatenate(([0.0], th[:-1]))
+        lands = {
+            1: np.flatnonzero(~(th > 0.5 * tol)).tolist(),
+            -1: np.flatnonzero(~(-th > 0.5 * tol)).tolist(),
+        }
+        cross = {1: (prev > 0) & (0 >= th), -1: (-prev > 0) & (0 >= -th)}
+        cross[1][0] = cross[-1][0] = False
+    stops = {s: np.flatnonzero(cross[s] | big).tolist() for s in (1, -1)}
+    bigs = np.flatnonzero(big).tolist()
     side = 0
     i = 0
     while i < n:
+        if side == 0:  # at rest in the band: the next sample beyond tol starts an excursion
+            k = bisect.bisect_left(bigs, i)
+            if k == len(bigs):
+                break
+            i = bigs[k]
+            side = 1 if th[i] > 0 else -1
+            i += 1
+            continue
+        k = bisect.bisect_left(lands[side], i)  # the next sample back within tol/2 (or beyond)
+        if k == len(lands[side]):
+            break
+        i = lands[side][k]
         x = th[i]
-        if side == 0:
-            if abs(x) > tol:
-                side = 1 if x > 0 else -1
-            i += 1
-            continue
-        if side * x > 0.5 * tol:
-            i += 1
-            continue
         # landed at sample i: the θ = 0 crossing between samples i − 1 and i, or later while
         # |θ| stays within tol (else the rock came back to the band without crossing: t[i])
         t_hit = float(t[i])
-        j = max(i, 1)
-        while j < n:
+        st = stops[side]
+        k = bisect.bisect_left(st, max(i, 1))
+        if k < len(st) and cross[side][st[k]]:
+            j = st[k]
             a, b = th[j - 1], th[j]
-            if side * a > 0 >= side * b:
-                t_hit = float(t[j - 1] + (a / (a - b)) * (t[j] - t[j - 1]))
-                break
-            if abs(b) > tol:
-                break
-            j += 1
+            t_hit = float(t[j - 1] + (a / (a - b)) * (t[j] - t[j - 1]))
         out.append(t_hit)
         side = -side if side * x < -tol else 0
         i += 1

@@ -47,8 +47,10 @@ __all__ = [
     "matrices_to_quats",
     "matrix_to_quat",
     "n_steps",
+    "quats_to_mats",
     "rotation_about",
     "run_steps",
+    "sample_steps",
 ]
 
 GROUND_MODES = ("inertial", "moving_pedestal")
@@ -92,21 +94,49 @@ def matrices_to_quats(r: np.ndarray) -> np.ndarray:
     cand = np.stack([tr, m[:, 0, 0], m[:, 1, 1], m[:, 2, 2]], axis=1)
     k = np.argmax(cand, axis=1)
     q = np.empty((n, 4))
-    d21, d02, d10 = m[:, 2, 1] - m[:, 1, 2], m[:, 0, 2] - m[:, 2, 0], m[:, 1, 0] - m[:, 0, 1]
-    s01, s02, s12 = m[:, 0, 1] + m[:, 1, 0], m[:, 0, 2] + m[:, 2, 0], m[:, 1, 2] + m[:, 2, 1]
     with np.errstate(invalid="ignore", divide="ignore"):
-        s0 = 2.0 * np.sqrt(np.maximum(tr + 1.0, 0.0))
-        s1 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 0, 0] - m[:, 1, 1] - m[:, 2, 2], 0.0))
-        s2 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 1, 1] - m[:, 0, 0] - m[:, 2, 2], 0.0))
-        s3 = 2.0 * np.sqrt(np.maximum(1.0 + m[:, 2, 2] - m[:, 0, 0] - m[:, 1, 1], 0.0))
-        b0 = np.stack([0.25 * s0, d21 / s0, d02 / s0, d10 / s0], axis=1)
-        b1 = np.stack([d21 / s1, 0.25 * s1, s01 / s1, s02 / s1], axis=1)
-        b2 = np.stack([d02 / s2, s01 / s2, 0.25 * s2, s12 / s2], axis=1)
-        b3 = np.stack([d10 / s3, s02 / s3, s12 / s3, 0.25 * s3], axis=1)
-    for i, b in enumerate((b0, b1, b2, b3)):
-        q[k == i] = b[k == i]
+        for b in range(4):  # each row through its own branch only (element-wise: same bits)
+            sel = np.flatnonzero(k == b)
+            if not sel.size:
+                continue
+            r = m[sel] if sel.size < n else m
+            d21, d02, d10 = r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]
+            s01, s02, s12 = r[:, 0, 1] + r[:, 1, 0], r[:, 0, 2] + r[:, 2, 0], r[:, 1, 2] + r[:, 2, 1]
+            r00, r11, r22 = r[:, 0, 0], r[:, 1, 1], r[:, 2, 2]
+            if b == 0:
+                sq = 2.0 * np.sqrt(np.maximum(tr[sel] + 1.0, 0.0))
+                q[sel] = np.stack([0.25 * sq, d21 / sq, d02 / sq, d10 / sq], axis=1)
+            elif b == 1:
+                sq = 2.0 * np.sqrt(np.maximum(1.0 + r00 - r11 - r22, 0.0))
+                q[sel] = np.stack([d21 / sq, 0.25 * sq, s01 / sq, s02 / sq], axis=1)
+            elif b == 2:
+                sq = 2.0 * np.sqrt(np.maximum(1.0 + r11 - r00 - r22, 0.0))
+                q[sel] = np.stack([d02 / sq, s01 / sq, 0.25 * sq, s12 / sq], axis=1)
+            else:
+                sq = 2.0 * np.sqrt(np.maximum(1.0 + r22 - r00 - r11, 0.0))
+                q[sel] = np.stack([d10 / sq, s02 / sq, s12 / sq, 0.25 * sq], axis=1)
     q[q[:, 0] < 0] *= -1.0
     return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def quats_to_mats(q: np.ndarray) -> np.ndarray:
+    """Scalar-first quaternions (n, 4) → row-major rotation matrices (n, 9), vectorised.
+
+    The terms are summed in the order MuJoCo's ``mju_quat2Mat`` uses, so a MuJoCo pose read as a
+    quaternion gives the same matrix bit for bit (checked in tests/test_stepping.py); any unit
+    quaternion gives its rotation to rounding.
+    """
+    q0, q1, q2, q3 = np.asarray(q, dtype=float).T
+    q00, q01, q02, q03 = q0 * q0, q0 * q1, q0 * q2, q0 * q3
+    q11, q12, q13, q22, q23, q33 = q1 * q1, q1 * q2, q1 * q3, q2 * q2, q2 * q3, q3 * q3
+    r = np.empty((q0.shape[0], 9))
+    r[:, 0] = (q00 - q22) + (q11 - q33)
+    r[:, 4] = (q00 + q22) - (q11 + q33)
+    r[:, 8] = (q00 - q22) + (q33 - q11)
+    r[:, 1], r[:, 2] = 2 * (q12 - q03), 2 * (q13 + q02)
+    r[:, 3], r[:, 5] = 2 * (q12 + q03), 2 * (q23 - q01)
+    r[:, 6], r[:, 7] = 2 * (q13 - q02), 2 * (q23 + q01)
+    return r
 
 
 @dataclass
@@ -128,12 +158,7 @@ class Recorder:
     dt: float
     explode_factor: float = 50.0
     max_speed: float = 1e3
-    t: list[float] = field(default_factory=list)
-    com: list[list[float]] = field(default_factory=list)
-    rot: list[list[float]] = field(default_factory=list)
-    omega: list[list[float]] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
-    contacts: list[int] = field(default_factory=list)
     max_penetration: float = 0.0
     failed: str = ""
     #: physical criterion: the run ended with the rock past α(φ) but tilting back
@@ -161,6 +186,58 @@ class Recorder:
     _com0l: list[float] = field(default_factory=lambda: [0.0, 0.0, 0.0])
     _out_dt: float = 1e-3
     _eps_t: float = 1e-12
+    # samples: preallocated arrays (grown by doubling), rows 0 … _n − 1 filled; no per-sample
+    # Python objects (lists of lists cost time and garbage-collector passes)
+    _n: int = 0
+    _T: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    _C: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    _R: np.ndarray = field(default_factory=lambda: np.zeros((0, 9)))
+    _W: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    # contact counts: running min, max, sum and number of readings
+    _nc_min: int = 0
+    _nc_max: int = 0
+    _nc_sum: int = 0
+    _nc_cnt: int = 0
+
+    @property
+    def t(self) -> list[float]:
+        """Sample times (s), a list."""
+        return self._T[: self._n].tolist()
+
+    @property
+    def com(self) -> np.ndarray:
+        """Sampled COM (n, 3) m, pedestal frame."""
+        return self._C[: self._n]
+
+    @property
+    def rot(self) -> np.ndarray:
+        """Sampled body rotations (n, 9), row-major."""
+        return self._R[: self._n]
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Sampled angular velocity (n, 3) rad/s, pedestal frame."""
+        return self._W[: self._n]
+
+    def _reserve(self, extra: int) -> int:
+        """Make room for ``extra`` more samples; returns the first free row."""
+        n = self._n
+        if n + extra > self._T.shape[0]:
+            cap = max(2 * self._T.shape[0], n + extra, 256)
+            for name, width in (("_T", 0), ("_C", 3), ("_R", 9), ("_W", 3)):
+                old = getattr(self, name)
+                arr = np.zeros(cap) if width == 0 else np.zeros((cap, width))
+                arr[:n] = old[:n]
+                setattr(self, name, arr)
+        return n
+
+    def _count_contacts(self, lo: int, hi: int, total: int, count: int) -> None:
+        if self._nc_cnt == 0:
+            self._nc_min, self._nc_max = lo, hi
+        else:
+            self._nc_min, self._nc_max = min(self._nc_min, lo), max(self._nc_max, hi)
+        self._nc_sum += total
+        self._nc_cnt += count
 
     def start(self, com0: np.ndarray, rot0: np.ndarray) -> None:
         """Rest pose after settling: COM (3,) m and rotation (3, 3) of the rock body."""
@@ -196,6 +273,7 @@ class Recorder:
         self._out_dt = float(self.scene.output_dt)
         self._eps_t = 1e-9 * self.dt
         self._next_out = 0.0
+        self._reserve(int(min(float(self.scene.duration) / self._out_dt, 1e7)) + 2)
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
         """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
@@ -230,7 +308,8 @@ class Recorder:
         )
         w = omega.tolist() if isinstance(omega, np.ndarray) else [float(x) for x in omega]
         if n_contacts is not None:
-            self.contacts.append(int(n_contacts))
+            nc = int(n_contacts)
+            self._count_contacts(nc, nc, nc, 1)
         if penetration is not None and penetration > self.max_penetration:
             self.max_penetration = float(penetration)
         zx, zy, zz = self._z0l
@@ -267,10 +346,12 @@ class Recorder:
                 self.events.append(Event("toppled", t, {"rule": "first crossing"}))
                 stop = bool(self.scene.toppling.stop_on_topple)
         if force or stop or t >= self._next_out - self._eps_t:
-            self.t.append(float(t))
-            self.com.append(c)
-            self.rot.append(r)
-            self.omega.append(w)
+            i = self._reserve(1)
+            self._T[i] = t
+            self._C[i] = c
+            self._R[i] = r
+            self._W[i] = w
+            self._n = i + 1
             while self._next_out <= t + self._eps_t:
                 self._next_out += self._out_dt
         return stop
@@ -317,8 +398,10 @@ class Recorder:
             # conservative screen: a superset of the steps where record() does more than store
             flag = ~np.isfinite(dist2 + om2 + cos + top)
             flag |= (dist2 > 0.25 * self._max_dist2) | (om2 > 0.25 * self._max_omega2)
-            if not self._uplifted:
-                flag |= cos < self._cos_uplift
+            if not self._uplifted:  # the first uplift only: the rows after it are ordinary
+                up = np.flatnonzero(cos < self._cos_uplift)
+                if up.size:
+                    flag[up[0]] = True
             if not self._toppled:
                 if self._physical:
                     flag |= (cos < self._cos_fast) | (com[:, 2] < 0.0)
@@ -363,34 +446,45 @@ class Recorder:
     ) -> None:
         """Steps i..j−1 of a block, none of which can change the recorder's state but by a sample."""
         if ncon is not None:
-            self.contacts.extend(ncon[i:j].tolist())
+            seg = ncon[i:j]
+            self._count_contacts(int(seg.min()), int(seg.max()), int(seg.sum()), j - i)
         if pen is not None:
-            p = pen[i:j]
-            p = p[p > self.max_penetration]
-            if p.size:
-                self.max_penetration = float(p.max())
+            p = float(pen[i:j].max())
+            if p != p:  # a NaN among them: the finite values still count
+                seg = pen[i:j][np.isfinite(pen[i:j])]
+                p = float(seg.max()) if seg.size else p
+            if p > self.max_penetration:
+                self.max_penetration = p
         if self._physical:
             self._past = False
             self._outward = bool(cos[j - 1] <= (cos[j - 2] if j - 2 >= i else self._prev_cos))
             self._prev_cos = float(cos[j - 1])
         eps, out_dt, nxt = self._eps_t, self._out_dt, self._next_out
-        tl = t[i:j].tolist()
-        idx: list[int] = []
-        k = 0
-        while True:  # one pass per sample, not per step
-            k = bisect.bisect_left(tl, nxt - eps, k)
-            if k >= len(tl):
-                break
-            idx.append(i + k)
-            tk = tl[k]
-            while nxt <= tk + eps:
-                nxt += out_dt
+        tb = t[i:j]
+        # usual case (rows at the output samples, or output_dt = dt): every row is a sample and
+        # advances the next output time by exactly one output_dt. Checked vectorised; np.cumsum
+        # adds in sequence, so the output times are the loop's own, bit for bit.
+        nx = np.cumsum(np.concatenate(([nxt], np.full(j - i, out_dt))))
+        idx: list[int] | range
+        if np.all(tb >= nx[:-1] - eps) and np.all(nx[:-1] <= tb + eps) and np.all(nx[1:] > tb + eps):
+            idx, nxt = range(i, j), float(nx[-1])
+        else:
+            idx = []
+            for k, tk in enumerate(tb.tolist()):  # the rule of record(), one comparison per row
+                if tk >= nxt - eps:
+                    idx.append(i + k)
+                    while nxt <= tk + eps:
+                        nxt += out_dt
         self._next_out = nxt
         if idx:
-            self.t.extend(t[idx].tolist())
-            self.com.extend(com[idx].tolist())
-            self.rot.extend(rot[idx].tolist())
-            self.omega.extend(omega[idx].tolist())
+            m = len(idx)
+            r0 = self._reserve(m)
+            sel: slice | list[int] = slice(idx[0], idx[0] + m) if idx[-1] - idx[0] == m - 1 else list(idx)
+            self._T[r0 : r0 + m] = t[sel]
+            self._C[r0 : r0 + m] = com[sel]
+            self._R[r0 : r0 + m] = rot[sel]
+            self._W[r0 : r0 + m] = omega[sel]
+            self._n = r0 + m
 
     def _decide(self, t: float, rule: str) -> bool:
         """Record the physical toppling decision at ``t`` (s); returns whether to stop."""
@@ -426,10 +520,13 @@ class Recorder:
         Called by :meth:`trajectory`; a rock past α(φ) but tilting back when the run ends is not
         counted as toppled and ``toppling_undecided`` is set in the diagnostics.
         """
-        if not self._physical or self._toppled or self.failed or not self._past or not self.t:
+        if not self._physical or self._toppled or self.failed or not self._past or not self._n:
             return
         if self._outward:
-            self._decide(self.t[-1], "past the critical tilt and not tilting back at the end of the run")
+            self._decide(
+                float(self._T[self._n - 1]),
+                "past the critical tilt and not tilting back at the end of the run",
+            )
         else:
             self.undecided = True
 
@@ -444,21 +541,21 @@ class Recorder:
         self.finish()
         diag = {
             "max_penetration_m": self.max_penetration,
-            "contacts_min": int(min(self.contacts)) if self.contacts else None,
-            "contacts_max": int(max(self.contacts)) if self.contacts else None,
-            "contacts_mean": float(np.mean(self.contacts)) if self.contacts else None,
+            "contacts_min": self._nc_min if self._nc_cnt else None,
+            "contacts_max": self._nc_max if self._nc_cnt else None,
+            "contacts_mean": self._nc_sum / self._nc_cnt if self._nc_cnt else None,
             "nan_or_explosion": bool(self.failed),
             "toppling_undecided": bool(self.undecided),
         }
         diag.update(diagnostics or {})
-        n = len(self.t)
-        rel = np.asarray(self.rot, dtype=float).reshape(n, 3, 3) @ self._r0t
+        n = self._n
+        rel = self._R[:n].reshape(n, 3, 3) @ self._r0t
         traj = Trajectory(
             engine=engine,
-            t=np.asarray(self.t, dtype=float),
-            com=np.asarray(self.com, dtype=float).reshape(n, 3),
+            t=self._T[:n].copy(),
+            com=self._C[:n].copy(),
             quat=matrices_to_quats(rel).reshape(n, 4),
-            omega=np.asarray(self.omega, dtype=float).reshape(n, 3),
+            omega=self._W[:n].copy(),
             events=list(self.events),
             diagnostics=diag,
             settings=dict(settings),
@@ -540,9 +637,14 @@ class StepBlock:
     pen : (size,) deepest penetration, m.
     n : rows filled so far (the adapter updates it after each step, so a step that raises
         loses nothing already computed).
+    keep : per-step flags of the whole run (list of n bools, step k → ``keep[k]``) when the
+        stepper records samples only (:attr:`StepperBase.samples_only`): the adapter writes a
+        row only after the steps flagged, and steps the others without reading anything.
+        None: a row after every step.
     """
 
     size: int
+    keep: list[bool] | None = None
     com: np.ndarray = field(init=False)
     rot: np.ndarray = field(init=False)
     omega: np.ndarray = field(init=False)
@@ -590,6 +692,8 @@ class StepperBase:
     """Defaults for a :class:`Stepper`: rest pose along the scene axes, no t = 0 sample, no drive to remove."""
 
     rest_rotation: np.ndarray = np.eye(3)
+    #: the adapter honours :attr:`StepBlock.keep` (writes rows at the output samples only)
+    samples_only: bool = False
 
     def sample(self, block: StepBlock) -> None:
         raise NotImplementedError(f"{type(self).__name__} records from the first step (sample_start=False)")
@@ -616,6 +720,33 @@ def failed_trajectory(engine: str, scene: Scene, message: str, settings: Any, ve
     )
 
 
+def sample_steps(rec: Recorder, n: int) -> list[int] | None:
+    """Steps (0-based, step k ends at t = (k + 1)·dt) that ``rec`` will keep as samples, the last included.
+
+    The recorder's own rule (a sample once t ≥ the next output time, the output times advanced by
+    repeated addition of ``output_dt``) evaluated ahead, so an adapter can skip reading the state
+    at every other step. None when every step is a sample (``output_dt`` ≤ dt).
+    """
+    dt, out_dt, eps = rec.dt, rec._out_dt, rec._eps_t
+    if out_dt <= dt or n <= 0:
+        return None
+    tl = (np.arange(1, n + 1) * dt).tolist()
+    rows: list[int] = []
+    nxt, k = rec._next_out, 0
+    while True:
+        k = bisect.bisect_left(tl, nxt - eps, k)
+        if k >= n:
+            break
+        rows.append(k)
+        tk = tl[k]
+        while nxt <= tk + eps:
+            nxt += out_dt
+        k += 1
+    if not rows or rows[-1] != n - 1:
+        rows.append(n - 1)
+    return None if len(rows) == n else rows
+
+
 def run_steps(
     stepper: Stepper,
     scene: Scene,
@@ -623,7 +754,7 @@ def run_steps(
     *,
     settle: bool = True,
     sample_start: bool = False,
-    block: int = 64,
+    block: int = 256,
     name: str = "engine",
 ) -> tuple[Recorder, dict[str, Any]]:
     """Run a scene on ``stepper``: settle or tilt, drive, sample, decide; never raises.
@@ -689,25 +820,40 @@ def run_steps(
                 n_contacts=int(buf.ncon[0]),
                 penetration=float(buf.pen[0]),
             )
+        rows = sample_steps(rec, n) if getattr(stepper, "samples_only", False) and rec._physical else None
+        if rows is not None:
+            keep = [False] * n
+            for r in rows:
+                keep[r] = True
+            buf.keep = keep
+            diag["recorded_steps"] = "output samples"
         t_loop = time.perf_counter()
         stop = False
+        r = 0
         while not stop and k < n:
-            k1 = min(n, k + buf.size)
+            if rows is None:  # a row after every step
+                k1 = min(n, k + buf.size)
+                steps = np.arange(k, k1)
+            else:  # rows at the output samples only: as many steps as the next buf.size samples need
+                r1 = min(len(rows), r + buf.size)
+                k1 = rows[r1 - 1] + 1
+                steps = np.asarray(rows[r:r1])
             buf.n = 0
             try:
                 stepper.advance(k, k1, buf)
             except Exception as exc:
                 m = buf.n
-                t = np.arange(k + 1, k + m + 1) * dt
+                t = (steps[:m] + 1) * dt
                 rec.record_block(t, buf.com[:m], buf.rot[:m], buf.omega[:m], buf.ncon[:m], buf.pen[:m])
-                k += m
+                k = int(steps[m - 1]) + 1 if m else k
                 raise exc
-            m = k1 - k
-            t = np.arange(k + 1, k1 + 1) * dt
+            m = len(steps)
+            t = (steps + 1) * dt
             stop, used = rec.record_block(
                 t, buf.com[:m], buf.rot[:m], buf.omega[:m], buf.ncon[:m], buf.pen[:m], force_last=k1 == n
             )
-            k += used
+            k = int(steps[used - 1]) + 1
+            r += used
         wall = time.perf_counter() - t_loop
         diag.update(wall_loop_s=wall, wall_per_step_us=1e6 * wall / max(k, 1))
         stepper.end()

@@ -304,3 +304,50 @@ def test_rolling_curved_base_does_not_slide() -> None:
     d = traj.diagnostics
     assert not traj.toppled and d["regime"] == "rock"
     assert d["slip_max_m"] < 0.01 * d["tolerance_slip_m"]
+
+
+def _impact_times_per_sample(t: np.ndarray, th: np.ndarray, tol: float) -> list[float]:
+    """The impact rule written as the plain loop over every sample (the reference)."""
+    out, side, i, n = [], 0, 0, th.size
+    while i < n:
+        x = th[i]
+        if side == 0:
+            if abs(x) > tol:
+                side = 1 if x > 0 else -1
+            i += 1
+            continue
+        if side * x > 0.5 * tol:
+            i += 1
+            continue
+        t_hit, j = float(t[i]), max(i, 1)
+        while j < n:
+            a, b = th[j - 1], th[j]
+            if side * a > 0 >= side * b:
+                t_hit = float(t[j - 1] + (a / (a - b)) * (t[j] - t[j - 1]))
+                break
+            if abs(b) > tol:
+                break
+            j += 1
+        out.append(t_hit)
+        side = -side if side * x < -tol else 0
+        i += 1
+    return out
+
+
+def test_impact_times_equal_the_per_sample_rule() -> None:
+    """impact_times jumps between candidate samples; it must give the per-sample loop's answer exactly
+    (random, rocking-like, quantised and NaN-holding histories)."""
+    rng = np.random.default_rng(11)
+    for trial in range(600):
+        n = int(rng.integers(1, 300))
+        t = np.cumsum(rng.uniform(0.5, 1.5, n))
+        if trial % 3 == 0:
+            th = rng.normal(0, 1, n)
+        elif trial % 3 == 1:
+            th = np.sin(t * rng.uniform(0.05, 0.5)) * rng.uniform(0.5, 3) + rng.normal(0, 0.05, n)
+        else:
+            th = np.round(rng.normal(0, 1, n))
+        if trial % 7 == 0:
+            th[rng.integers(0, n)] = np.nan
+        tol = float(rng.uniform(0.05, 1.0))
+        assert impact_times(t, th, tol).tolist() == _impact_times_per_sample(t, th, tol)

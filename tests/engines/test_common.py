@@ -105,3 +105,25 @@ def test_initial_pose_pivots_about_the_edge() -> None:
     corner = np.array([0.2, 0.0, 0.0])
     assert np.allclose(com + rot @ (corner - scene.rock.com), corner, atol=1e-12)
     assert np.allclose(vel, 0) and np.allclose(om, 0)
+
+
+def test_block_pose_conversion_is_the_engines_own() -> None:
+    """The adapters read quaternions per sample and convert them per block: the matrices must be
+    the engines' own conversions bit for bit (mju_quat2Mat, getMatrixFromQuaternion)."""
+    from pbr_xval.stepping import quats_to_mats
+
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(3000, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    q[0] = (1.0, 0.0, 0.0, 0.0)
+    mujoco = pytest.importorskip("mujoco")
+    ref = np.zeros((len(q), 9))
+    for i in range(len(q)):
+        mujoco.mju_quat2Mat(ref[i], q[i])
+    assert np.array_equal(quats_to_mats(q), ref)
+    p = pytest.importorskip("pybullet")
+    from pbr_xval.engines._pybullet_model import xyzw_to_mats
+
+    xyzw = q[:, [1, 2, 3, 0]]
+    ref_pb = np.array([p.getMatrixFromQuaternion(x.tolist()) for x in xyzw])
+    assert np.array_equal(xyzw_to_mats(xyzw), ref_pb)
