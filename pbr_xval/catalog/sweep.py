@@ -197,7 +197,16 @@ def _dask(
         raise RuntimeError("the dask executor needs: pip install 'pbr-xval[dask]'") from exc
 
     cluster = None
-    with dask.config.set({"distributed.scheduler.allowed-failures": 1, "distributed.worker.daemon": False}):
+    # worker-saturation 1.0: a worker holds one chunk per thread, so a worker that a bad chunk
+    # kills takes no queued healthy chunk with it (with allowed-failures = 1 a healthy chunk
+    # caught on two dying workers would be reported as failed). A scheduler given by address
+    # keeps its own configuration.
+    conf = {
+        "distributed.scheduler.allowed-failures": 1,
+        "distributed.scheduler.worker-saturation": 1.0,
+        "distributed.worker.daemon": False,
+    }
+    with dask.config.set(conf):
         if scheduler:
             client = Client(scheduler)
         else:
