@@ -195,7 +195,9 @@ def test_sample_rate_recording(name, theta, block) -> None:
     assert diag["recorded_steps"] == "output samples"
     n = len(rec.t)
     assert rec.t[: n - 1] == ref.t[: n - 1]  # the last row may be the stopping sample
-    assert np.array_equal(rec.com[: n - 1], ref.com[: n - 1]) and np.array_equal(rec.rot[: n - 1], ref.rot[: n - 1])
+    assert np.array_equal(rec.com[: n - 1], ref.com[: n - 1]) and np.array_equal(
+        rec.rot[: n - 1], ref.rot[: n - 1]
+    )
     kinds = lambda r: sorted({e.kind for e in r.events})  # noqa: E731
     assert kinds(rec) == kinds(ref)
     for e in rec.events:
