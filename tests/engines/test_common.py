@@ -127,3 +127,23 @@ def test_block_pose_conversion_is_the_engines_own() -> None:
     xyzw = q[:, [1, 2, 3, 0]]
     ref_pb = np.array([p.getMatrixFromQuaternion(x.tolist()) for x in xyzw])
     assert np.array_equal(xyzw_to_mats(xyzw), ref_pb)
+
+
+def test_dart_pose_conversion_is_dart_own() -> None:
+    """The DART adapter reads the free-joint coordinates and converts them per block: the matrices
+    must be DART's own (FreeJoint.convertToTransform) bit for bit, both sides of its 1e-3 rad branch."""
+    dart = pytest.importorskip("dartpy")
+    from pbr_xval.engines._dart_model import expmap_to_mats
+
+    rng = np.random.default_rng(5)
+    w = np.concatenate(
+        [
+            rng.normal(size=(600, 3)) * rng.uniform(0, 3, (600, 1)),
+            rng.normal(size=(200, 3)) * 1e-4,
+            np.zeros((1, 3)),
+        ]
+    )
+    ref = np.array(
+        [dart.dynamics.FreeJoint.convertToTransform(np.r_[v, 0.0, 0.0, 0.0]).rotation() for v in w]
+    )
+    assert np.array_equal(expmap_to_mats(w), ref.reshape(-1, 9))
