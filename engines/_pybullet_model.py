@@ -5,6 +5,7 @@ Used by :mod:`pbr_xval.engines.pybullet_`; ``pybullet`` is passed in (imported l
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -25,6 +26,24 @@ def xyzw(r: np.ndarray) -> list[float]:
     """PyBullet quaternion (x, y, z, w) from a rotation matrix (3, 3)."""
     w, x, y, z = matrix_to_quat(r)
     return [float(x), float(y), float(z), float(w)]
+
+
+_CLIENTS = threading.local()
+
+
+def physics_client(p: Any) -> int:
+    """This thread's DIRECT physics client, emptied by ``resetSimulation`` (0.5 ms) for a new run.
+
+    Connecting costs 11–16 ms, as much as 1–2 s of simulated rocking; a run sets every engine
+    parameter it uses itself, so a reset client and a new one give the same trajectory bit for
+    bit (checked in tests/engines/test_common.py).
+    """
+    cid = getattr(_CLIENTS, "cid", None)
+    if cid is None or not p.isConnected(physicsClientId=cid):
+        cid = _CLIENTS.cid = p.connect(p.DIRECT)
+    else:
+        p.resetSimulation(physicsClientId=cid)
+    return int(cid)
 
 
 def xyzw_to_mats(q: Any) -> np.ndarray:

@@ -40,7 +40,7 @@ from pbr_xval.stepping import (
 )
 
 from ._common import COLLISION_CHOICES, check_choices
-from ._pybullet_model import pedestal, principal_frame, rock_shape, xyzw, xyzw_to_mats
+from ._pybullet_model import pedestal, physics_client, principal_frame, rock_shape, xyzw, xyzw_to_mats
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
@@ -161,11 +161,7 @@ class PyBulletEngine(EngineBase):
         p = _import_pybullet()
         s = self.resolve_settings(settings)
         self._check(s)
-        cid = p.connect(p.DIRECT)
-        try:
-            return self._run(p, cid, scene, s)
-        finally:
-            p.disconnect(physicsClientId=cid)
+        return self._run(p, physics_client(p), scene, s)
 
     def _run(self, p: Any, cid: int, scene: Scene, s: dict[str, Any]) -> Trajectory:
         dt = float(s["timestep"])
