@@ -265,12 +265,23 @@ class Scene:
         v, c, d = self.rock.mesh.vertices, self.rock.com, self.direction
         return critical_tilt(v, c, -d), critical_tilt(v, c, d)
 
+    @cached_property
+    def _uplift_levers(self) -> dict[float, tuple[float, float]]:
+        """(b, h) m of :func:`uplift_lever` for pedestal accelerations along +d (key 1.0) and −d (−1.0)."""
+        v, c, d = self.rock.mesh.vertices, self.rock.com, self.direction
+        return {s: uplift_lever(v, c, -s * d) for s in (1.0, -1.0)}
+
     def uplift_accel(self, sign: float = 1.0) -> float:
         """Quasi-static pedestal acceleration (m/s²) along ``sign``·d that starts rocking.
 
         A pedestal accelerating along +d tips the rock toward −d.
         """
-        b, h = uplift_lever(self.rock.mesh.vertices, self.rock.com, -sign * self.direction)
+        lev = self._uplift_levers.get(sign)
+        b, h = (
+            lev
+            if lev is not None
+            else uplift_lever(self.rock.mesh.vertices, self.rock.com, -sign * self.direction)
+        )
         return self.gravity * b / h
 
     def planar_model(self) -> PlanarModel:
