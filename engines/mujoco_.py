@@ -286,11 +286,8 @@ class MuJoCoEngine(EngineBase):
         st = _MjStepper(mujoco, m, scene, s, info)
         rec, diag = run_steps(st, scene, float(m.opt.timestep), settle=bool(s["settle"]), name=self.name)
         nw = int(mujoco.mjtWarning.mjNWARNING)
-        counts = {
-            w.name: int(st.d.warning[int(w)].number)
-            for w in mujoco.mjtWarning.__members__.values()
-            if int(w) < nw
-        }
+        ws = mujoco.mjtWarning.__members__.values()
+        counts = {w.name: int(st.d.warning[int(w)].number) for w in ws if int(w) < nw}
         warnings = {k: v for k, v in counts.items() if v}
         diag.update(ground_motion=s["ground_motion"], mujoco_warnings=warnings)
         if warnings.get("mjWARN_BADQACC"):
@@ -310,8 +307,7 @@ class _MjStepper(StepperBase):
         self.d = d = mujoco.MjData(m)
         self.dt = float(m.opt.timestep)
         self.moving = bool(info["moving"])
-        rock_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "rock")
-        jr = m.body_jntadr[rock_id]
+        jr = m.body_jntadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, "rock")]
         self.qa, self.va = qa, va = int(m.jnt_qposadr[jr]), int(m.jnt_dofadr[jr])
         self.qb, self.vb = np.zeros((0, m.nq)), np.zeros((0, m.nv))
         self.pos, self.quat = d.qpos[qa : qa + 3], d.qpos[qa + 3 : qa + 7]
@@ -319,8 +315,8 @@ class _MjStepper(StepperBase):
         self.npj = 3 if scene.excitation.vertical is not None else 2
         if self.moving:
             j0 = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, "ped0")
-            pq, pv = int(m.jnt_qposadr[j0]), int(m.jnt_dofadr[j0])
-            self.pq = pq
+            self.pq = pq = int(m.jnt_qposadr[j0])
+            pv = int(m.jnt_dofadr[j0])
             self.pqs, self.pvs = d.qpos[pq : pq + self.npj], d.qvel[pv : pv + self.npj]
             self.pfs = d.qfrc_applied[pv : pv + self.npj]
         mujoco.mj_resetData(m, d)
@@ -361,6 +357,8 @@ class _MjStepper(StepperBase):
         else:
             g = stepping.gravity_sequence(scene, tk + 0.5 * dt)
             self.grav_xyz = (g[:, 0].tolist(), g[:, 1].tolist(), g[:, 2].tolist())  # floats: no GC load
+            self.x_only = n > 0 and bool(np.all(g[:, 1:] == g[:1, 1:]))  # y, z constant: set once, x per step
+            self.m.opt.gravity[1:] = g[0, 1:] if self.x_only else self.m.opt.gravity[1:]
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
         m, d, step, keep, moving = self.m, self.d, self.mj.mj_step, block.keep, self.moving
@@ -368,12 +366,14 @@ class _MjStepper(StepperBase):
         if self.qb.shape[0] < block.size:  # raw qpos / qvel rows, converted once per block
             self.qb, self.vb = np.zeros((block.size, m.nq)), np.zeros((block.size, m.nv))
         qb, vb, qpos, qvel, ncon, pen = self.qb, self.vb, d.qpos, d.qvel, block.ncon, block.pen
-        gx, gy, gz = getattr(self, "grav_xyz", ((), (), ()))
+        (gx, gy, gz), x_only = getattr(self, "grav_xyz", ((), (), ())), getattr(self, "x_only", False)
         i = 0
         try:
             for k in range(k0, k1):
                 if moving:
                     self.pqs[:], self.pvs[:], self.pfs[:] = self.disp[k], self.vel[k], self.frc[k]
+                elif x_only:
+                    grav[0] = gx[k]
                 else:
                     grav[0], grav[1], grav[2] = gx[k], gy[k], gz[k]
                 step(m, d)
