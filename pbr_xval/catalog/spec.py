@@ -59,7 +59,7 @@ SHAPE_KEYS: dict[str, dict[str, bool]] = {  # key -> required
     "box": {"half_extents": True},
     "notched_block": {"half_extents": True, "notch_width": True, "notch_height": True},
     "curved_base": {"H": True, "r": True, "h": True, "depth": False, "arc_segments": False},
-    "mesh": {"path": True, "units": False, "orientation": False},
+    "mesh": {"path": True, "units": False, "pose": False, "orientation": False},
     "synthetic": {
         "seed": True,
         "radii": False,
@@ -325,7 +325,7 @@ def _csv_value(key: str, text: str) -> Any:
     text = text.strip()
     if text == "":
         return None
-    if key in ("id", "shape", "path", "units", "orientation", "site_name", "notes", "pedestal"):
+    if key in ("id", "shape", "path", "units", "pose", "orientation", "site_name", "notes", "pedestal"):
         return text
     if key in ("half_extents", "radii"):
         parts = [p for p in re.split(r"[\s;|]+", text.strip("[]")) if p]

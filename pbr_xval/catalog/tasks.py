@@ -235,7 +235,7 @@ def scenario_dict(spec: ChunkSpec, motion: dict[str, Any], mu: float, seed: int)
         rock = {"shape": "mesh", "path": synthetic_mesh_file(r), **mass}
     else:
         keys = {"box": ["half_extents"], "notched_block": ["half_extents", "notch_width", "notch_height"],
-                "curved_base": ["H", "r", "h", "depth", "arc_segments"], "mesh": ["path", "units", "orientation"]}[shape]  # fmt: skip
+                "curved_base": ["H", "r", "h", "depth", "arc_segments"], "mesh": ["path", "units", "pose", "orientation"]}[shape]  # fmt: skip
         rock = {"shape": shape, **{k: r[k] for k in keys if r.get(k) is not None}, **mass}
     if r.get("yaw_deg"):
         rock["yaw_deg"] = r["yaw_deg"]

@@ -78,3 +78,30 @@ def test_chunks_deterministic_and_shards_partition(tiny_catalog):
     assert sorted(c.content_hash() for p in parts for c in p) == sorted(hs)
     with pytest.raises(ValueError, match="i/N"):
         shard_chunks(a, "4/3")
+
+
+def test_mesh_rock_pose_as_in_a_scenario(tmp_path):
+    """A catalog's mesh rock takes the scenario's pose vocabulary (scan | settle | stable); a bad
+    pose is refused up front naming the rock and the key; the old key still reads, with a warning."""
+    import warnings
+
+    from pbr_xval.catalog.tasks import scenario_dict
+    from pbr_xval.scenario import Scenario
+
+    obj = ROOT / "examples" / "rocks" / "synthetic_pbr.obj"
+    rock = f'[[rock]]\nid = "m"\nshape = "mesh"\npath = "{obj}"\ndensity = 2600.0\n'
+    p = tmp_path / "c.toml"
+    p.write_text(rock + 'pose = "stable"\n' + BASE_MOTIONS)
+    cat = load_catalog(p)
+    spec = build_chunks(cat)[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no deprecation on the new key
+        scn = Scenario.model_validate(scenario_dict(spec, spec.motions[0], 1.0, 0))
+    assert scn.rock.pose == "stable"
+    with pytest.raises(CatalogError) as ei:
+        _load(tmp_path, rock + 'pose = "upright"\n' + BASE_MOTIONS)
+    assert len(ei.value.lines) == 1 and "(id 'm')" in str(ei.value) and "pose" in str(ei.value)
+    with pytest.warns(FutureWarning, match="pose"):
+        p.write_text(rock + 'orientation = "as_scanned"\n' + BASE_MOTIONS)
+        spec = build_chunks(load_catalog(p))[0]
+        assert Scenario.model_validate(scenario_dict(spec, spec.motions[0], 1.0, 0)).rock.pose == "scan"
