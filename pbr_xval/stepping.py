@@ -779,6 +779,7 @@ def run_steps(
     rec = Recorder(scene, dt)
     diag: dict[str, Any] = {}
     k = 0
+    k_err: int | None = None
     try:
         com0, rot0, vel0, om0 = initial_pose(scene)
         if scene.theta0 != 0.0 or scene.omega0 != 0.0:
@@ -846,6 +847,7 @@ def run_steps(
                 t = (steps[:m] + 1) * dt
                 rec.record_block(t, buf.com[:m], buf.rot[:m], buf.omega[:m], buf.ncon[:m], buf.pen[:m])
                 k = int(steps[m - 1]) + 1 if m else k
+                k_err = int(steps[m]) + 1 if rows is not None and m < len(steps) else None
                 raise exc
             m = len(steps)
             t = (steps + 1) * dt
@@ -859,10 +861,10 @@ def run_steps(
         stepper.end()
     except Exception as exc:  # an engine error never escapes: a failed trajectory
         diag["exception"] = f"{type(exc).__name__}: {exc}"
-        fail(
-            rec,
-            k * dt,
-            f"{name}: engine error after {k} steps (t = {k * dt:.6g} s): {type(exc).__name__}: {exc}",
-        )
+        # reading at the samples only, the error came after the last sample (step k) and by the next
+        where = f"after {k} steps (t = {k * dt:.6g} s)"
+        if k_err is not None and k_err > k + 1:
+            where = f"between steps {k} and {k_err} (t = {k * dt:.6g}–{k_err * dt:.6g} s; samples only)"
+        fail(rec, k * dt, f"{name}: engine error {where}: {type(exc).__name__}: {exc}")
     diag["steps"] = k
     return rec, diag

@@ -208,6 +208,18 @@ def test_sample_rate_recording(name, theta, block) -> None:
         assert "toppled" not in kinds(rec)
 
 
+def test_sample_rate_recording_engine_exception_names_the_step_range() -> None:
+    """Reading at the samples only, an engine error is placed between the last sample and the next."""
+    scene = _scene()  # samples every 10 steps
+    rec, diag = run_steps(
+        SampledFakeStepper(scene, lambda t: 0.0, raise_at=333), scene, DT, block=4, name="fake"
+    )
+    assert (
+        rec.failed.startswith("fake: engine error between steps 330 and 340") and "RuntimeError" in rec.failed
+    )
+    assert rec.t[-1] == pytest.approx(0.33) and diag["steps"] == 330  # the samples before it are kept
+
+
 def test_sample_rate_recording_keeps_every_step_for_first_crossing_rules() -> None:
     """A first-crossing criterion needs every step: a samples-only adapter is then fed every step."""
     scene = _scene(toppling={"criterion": "critical_tilt"})
