@@ -198,6 +198,10 @@ class Recorder:
     _nc_max: int = 0
     _nc_sum: int = 0
     _nc_cnt: int = 0
+    #: the last recorded block reached half the smallest critical tilt (run_steps then takes
+    #: short blocks, so that a toppling decision stops the engine soon after it is taken)
+    near: bool = False
+    _cos_near: float = 1.0
 
     @property
     def t(self) -> list[float]:
@@ -274,6 +278,7 @@ class Recorder:
         self._eps_t = 1e-9 * self.dt
         self._next_out = 0.0
         self._reserve(int(min(float(self.scene.duration) / self._out_dt, 1e7)) + 2)
+        self._cos_near = math.cos(0.5 * alpha_min)
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
         """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
@@ -411,6 +416,7 @@ class Recorder:
                     flag |= cos < self._cos_fast
         if force_last:
             flag[-1] = True
+        self.near = not bool(np.min(cos) > self._cos_near)  # NaN counts as near
         flagged = np.flatnonzero(flag).tolist()
         i = 0
         for j in [*flagged, m]:
@@ -766,7 +772,8 @@ def run_steps(
     dt : s, the time step.
     settle : settle for ``scene.settle_time`` when the rock starts at rest.
     sample_start : also record the state at t = 0.
-    block : steps taken natively between two recorder calls.
+    block : rows (steps, or output samples for a samples-only stepper) per recorder call; an
+        eighth of it once the rock has reached half its smallest critical tilt.
     name : engine name for failure messages.
 
     Returns
@@ -832,11 +839,12 @@ def run_steps(
         stop = False
         r = 0
         while not stop and k < n:
+            size = max(1, buf.size // 8) if rec.near else buf.size  # near α: short blocks, little overshoot
             if rows is None:  # a row after every step
-                k1 = min(n, k + buf.size)
+                k1 = min(n, k + size)
                 steps = np.arange(k, k1)
-            else:  # rows at the output samples only: as many steps as the next buf.size samples need
-                r1 = min(len(rows), r + buf.size)
+            else:  # rows at the output samples only: as many steps as the next `size` samples need
+                r1 = min(len(rows), r + size)
                 k1 = rows[r1 - 1] + 1
                 steps = np.asarray(rows[r:r1])
             buf.n = 0

@@ -322,3 +322,21 @@ def test_mujoco_model_cache_reused_across_excitations_and_safe_in_threads() -> N
         got = list(ex.map(lambda sc: run_scene(sc, "mujoco").fingerprint(), scenes * 3))
     assert got == fresh * 3
     assert _common.MODEL_BUILDS["mujoco"] <= before + 2  # at most one per thread
+
+
+def test_short_blocks_near_toppling_bound_the_overshoot() -> None:
+    """Once the rock reaches half its critical tilt the core takes an eighth of a block, so an
+    engine stops at most block/8 steps after the toppling decision (not a whole block later)."""
+
+    class Counting(FakeStepper):
+        reached = 0
+
+        def advance(self, k0, k1, block):
+            super().advance(k0, k1, block)
+            self.reached = max(self.reached, k1)
+
+    scene = _scene(output_dt=1e-3)
+    st = Counting(scene, lambda t: min(math.pi / 2 + 0.1, 3.0 * t * t))
+    rec, diag = run_steps(st, scene, DT, block=256)
+    assert any(e.kind == "toppled" for e in rec.events)
+    assert 0 <= st.reached - diag["steps"] <= 256 // 8
