@@ -10,13 +10,22 @@ rate, the toppling decision and NaN/explosion detection (:class:`Recorder`), fai
 (an engine exception becomes a failed :class:`~pbr_xval.engine.Trajectory`, never an exception)
 and the shared diagnostics (:mod:`pbr_xval.diagnostics`, applied by :meth:`Recorder.trajectory`).
 
-Speed without missed events: the recorder does not run Python per step. A block of steps is
-screened with vectorised tests that are *conservative* (a superset of every step at which the
+Speed without missed events: the recorder does not run Python per step. A block of rows is
+screened with vectorised tests that are *conservative* (a superset of every row at which the
 per-step recorder could do anything but store a sample: uplift, a tilt beyond the smallest
 critical tilt, a COM below the pedestal top, NaN, a quarter of the explosion limits); the
-flagged steps go through the exact per-step :meth:`Recorder.record`, the others are stored in
-bulk. Every step's state is kept, so no toppling event, impact or failure between samples can
-be missed, and the result is bit-identical to calling :meth:`Recorder.record` after each step.
+flagged rows go through the exact per-step :meth:`Recorder.record`, the others are stored in
+bulk — bit-identical to calling :meth:`Recorder.record` after each row.
+
+Rows at the output rate: a stepper that sets ``samples_only`` reads the state only after the
+steps that will be samples (:func:`sample_steps`, the recorder's own rule evaluated ahead;
+``StepBlock.keep``) and lets the engine step natively in between. Under the physical toppling
+criterion nothing between two samples can change a verdict — a rock that is down, or past α(φ)
+and tilting outward after the excitation, is still so at the next sample — so verdicts are the
+per-step ones, dated at the first sample at or after the step (≤ ``output_dt`` later); contact
+figures are those of the samples. The first-crossing criteria get a row after every step. Once
+the rock reaches half its smallest critical tilt the blocks shrink to an eighth, so a run that
+stops on toppling overshoots by at most that many rows.
 """
 
 from __future__ import annotations
