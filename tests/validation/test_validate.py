@@ -107,29 +107,35 @@ def test_validate_sp1_subset_mujoco(tmp_path: Path) -> None:
         ("mujoco", 2, 0.837),
         ("pybullet", 1, 0.809),
         ("pybullet", 2, 0.816),
-        ("dart", 1, 0.853),
-        ("dart", 2, 0.794),
+        ("dart", 1, 0.816),  # on the 66 screening tests (every 3rd): DART costs 2× PyBullet
+        ("dart", 2, 0.829),
     ],
 )
 def test_documented_f1_against_the_experiments(
     engine: str, specimen: int, documented: float, tmp_path: Path
 ) -> None:
-    """docs/validation.md: each engine's F1 with the committed scenarios over the 196 tests (the
-    reference is the lab's observed outcomes). Measured MuJoCo 0.8857 / 0.8372, PyBullet 0.8088 /
-    0.8160, DART 0.8531 / 0.7937 (SP1 / SP2); the engines are deterministic, the margin 0.02 allows
-    one or two tests to flip on another platform or library version. That physics beats every
-    fitted rule is claimed for MuJoCo (both specimens) and DART on SP1."""
+    """docs/validation.md: each engine's F1 with the committed scenarios (the reference is the lab's
+    observed outcomes): MuJoCo and PyBullet over the 196 tests, measured 0.8857 / 0.8372 and
+    0.8088 / 0.8160 (SP1 / SP2); DART over the 66 screening tests, 0.8163 / 0.8293. The engines are
+    deterministic; the margin 0.02 (0.03 on 66 tests) allows a test or two to flip on another
+    platform or library version. That physics beats every fitted rule is claimed for MuJoCo."""
     pytest.importorskip({"mujoco": "mujoco", "pybullet": "pybullet", "dart": "dartpy"}[engine])
     scn = SP1_SCENARIO.with_name(f"sp{specimen}.toml")
     mesh = SCANS / "SP1_mesh.obj" if specimen == 1 else scn.with_name("sp2.rock.obj")
     if not (SHAKE_TABLE.is_dir() and mesh.is_file()):
         pytest.skip("shared data (or examples/validation/sp2.rock.obj: run make_sp2_mesh.py) not present")
     out = tmp_path / f"sp{specimen}"
+    subset: list[str] = []
+    if engine == "dart":
+        from pbr_xval.validation import load_campaign
+        from pbr_xval.validation.calibrate import screening_subset
+
+        subset = ["--tests", ",".join(screening_subset(load_campaign(SHAKE_TABLE, specimen=specimen), 3))]
     res = runner.invoke(app, ["validate", str(SHAKE_TABLE), "--specimen", str(specimen), "--scenario", str(scn),
-                              "--engine", engine, "--out", str(out)])  # fmt: skip
+                              "--engine", engine, "--out", str(out), *subset])  # fmt: skip
     assert res.exit_code == 0, res.output
     sc = pd.read_csv(out / "scores.csv").set_index("model")
-    assert sc.loc[engine, "f1"] == pytest.approx(documented, abs=0.02)
-    best_rule = sc.loc[["PGA rule", "PGV rule", "PGA-and-PGV rule"], "f1"].max()
-    if engine == "mujoco" or (engine, specimen) == ("dart", 1):
-        assert sc.loc[engine, "f1"] > best_rule
+    assert int(sc.loc[engine, ["tp", "fp", "fn", "tn"]].sum()) == (66 if subset else 196)
+    assert sc.loc[engine, "f1"] == pytest.approx(documented, abs=0.03 if subset else 0.02)
+    if engine == "mujoco":
+        assert sc.loc[engine, "f1"] > sc.loc[["PGA rule", "PGV rule", "PGA-and-PGV rule"], "f1"].max()
