@@ -357,8 +357,8 @@ class _MjStepper(StepperBase):
         else:
             g = stepping.gravity_sequence(scene, tk + 0.5 * dt)
             self.grav_xyz = (g[:, 0].tolist(), g[:, 1].tolist(), g[:, 2].tolist())  # floats: no GC load
-            self.x_only = n > 0 and bool(np.all(g[:, 1:] == g[:1, 1:]))  # y, z constant: set once, x per step
-            self.m.opt.gravity[1:] = g[0, 1:] if self.x_only else self.m.opt.gravity[1:]
+            self.x_only = bool(np.all(g[:, 1:] == g[:1, 1:]))  # y, z constant: set once, x per step
+            self.m.opt.gravity[1:] = g[0, 1:]  # (when y or z varies, every step sets all three anyway)
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
         m, d, step, keep, moving = self.m, self.d, self.mj.mj_step, block.keep, self.moving

@@ -250,35 +250,29 @@ def com_velocity(t: np.ndarray, x: np.ndarray) -> np.ndarray:
     return d1[a] + d2[best - 1] * ((t - ta) + (t - tb))[:, None]
 
 
-def energy_series(
-    traj: Trajectory,
-    scene: Scene,
-    velocity: np.ndarray | None = None,
-    rotation: np.ndarray | None = None,
-    kinetic: list[np.ndarray] | None = None,
-) -> np.ndarray:
+def energy_series(traj: Trajectory, scene: Scene, velocity: np.ndarray | None = None) -> np.ndarray:
     """Total energy E(t) (n,) J in the pedestal frame, including the work of the inertial load.
 
     E = ½ m|v|² + ½ ωᵀ R I Rᵀ ω + m g (z_G − z_G,rest) + ∫₀ᵗ m a_g·v dt, with R the rotation
     from rest, I the inertia at rest and a_g the pedestal acceleration (trapezoidal rule on the
     samples). Constant in smooth rigid motion; falls at impacts and in friction.
-
-    ``velocity`` (n, 3) m/s and ``rotation`` (n, 3, 3), when given, are the samples' COM velocity
-    and rotation matrices (computed here otherwise); the kinetic energy (n,) J is appended to
-    ``kinetic`` when a list is given.
     """
+    t = traj.t
+    v = com_velocity(t, traj.com) if velocity is None else velocity
+    return _energy(traj, scene, v, traj.rotation_matrices())[0]
+
+
+def _energy(traj: Trajectory, scene: Scene, v: np.ndarray, rot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(E(t), kinetic energy) (n,) J each, from the samples' COM velocity ``v`` (n, 3) m/s and
+    rotations ``rot`` (n, 3, 3); see :func:`energy_series`."""
     sc = scene_scales(scene)
     t, com, w = traj.t, traj.com, traj.omega
-    v = com_velocity(t, com) if velocity is None else velocity
-    rot = traj.rotation_matrices() if rotation is None else rotation
     ke = _kinetic(sc, rot, v, w)
-    if kinetic is not None:
-        kinetic.append(ke)
     pe = sc.mass * sc.gravity * (com[:, 2] - sc.com[2])
     ag = np.asarray(scene.excitation.acceleration(t), dtype=float).reshape(t.size, 3)
     power = sc.mass * np.einsum("ni,ni->n", ag, v)
     work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * np.diff(t))])
-    return ke + pe + work
+    return ke + pe + work, ke
 
 
 def impact_times(t: np.ndarray, theta: np.ndarray, tol: float) -> np.ndarray:
@@ -463,12 +457,10 @@ def standard_diagnostics(traj: Trajectory, scene: Scene) -> dict[str, Any]:
     traj_ok = traj if n_ok == traj.t.size else _prefix(traj, n_ok)
     omega = np.asarray(traj.omega, dtype=float)[:n_ok]
     vel = com_velocity(t, com)
-    kin: list[np.ndarray] = []
-    e = energy_series(traj_ok, scene, vel, rot, kin)
+    e, ke = _energy(traj_ok, scene, vel, rot)
     e0 = float(e[0])
     change = float(np.max(np.abs(e - e0)))
     gain = float(np.max(e - np.minimum.accumulate(e)))
-    ke = kin[0]
     rest_ke = REST_ENERGY_REL * sc.barrier
     rest = ke < rest_ke
     ke_start = float(ke[0]) if t[0] <= 0.0 or n_ok < 3 else float(_kinetic_at(sc, t, com, rot, omega, 0.0))

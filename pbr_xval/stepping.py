@@ -148,6 +148,18 @@ def quats_to_mats(q: np.ndarray) -> np.ndarray:
     return r
 
 
+def _next_output(nxt: float, t: float, out_dt: float, eps: float) -> float:
+    """The next output time after a sample at ``t`` (s): ``nxt`` advanced by whole ``out_dt``.
+
+    The recorder's sampling rule (a step at t is a sample when t ≥ nxt − eps), in the one place
+    that :meth:`Recorder.record`, the recorder's bulk path and :func:`sample_steps` share, so the
+    samples an adapter is asked to read are exactly the ones the recorder keeps.
+    """
+    while nxt <= t + eps:
+        nxt += out_dt
+    return nxt
+
+
 @dataclass
 class Recorder:
     """Collects the rock state during a run and turns it into a :class:`Trajectory`.
@@ -366,8 +378,7 @@ class Recorder:
             self._R[i] = r
             self._W[i] = w
             self._n = i + 1
-            while self._next_out <= t + self._eps_t:
-                self._next_out += self._out_dt
+            self._next_out = _next_output(self._next_out, t, self._out_dt, self._eps_t)
         return stop
 
     def record_block(
@@ -488,8 +499,7 @@ class Recorder:
             for k, tk in enumerate(tb.tolist()):  # the rule of record(), one comparison per row
                 if tk >= nxt - eps:
                     idx.append(i + k)
-                    while nxt <= tk + eps:
-                        nxt += out_dt
+                    nxt = _next_output(nxt, tk, out_dt, eps)
         self._next_out = nxt
         if idx:
             m = len(idx)
@@ -753,9 +763,7 @@ def sample_steps(rec: Recorder, n: int) -> list[int] | None:
         if k >= n:
             break
         rows.append(k)
-        tk = tl[k]
-        while nxt <= tk + eps:
-            nxt += out_dt
+        nxt = _next_output(nxt, tl[k], out_dt, eps)
         k += 1
     if not rows or rows[-1] != n - 1:
         rows.append(n - 1)
