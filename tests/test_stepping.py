@@ -66,13 +66,16 @@ class FakeStepper(StepperBase):
         return com, r, w
 
     def advance(self, k0: int, k1: int, block: StepBlock) -> None:
-        for i, k in enumerate(range(k0, k1)):
+        i = 0
+        for k in range(k0, k1):
             if self.raise_at is not None and k == self.raise_at:
                 raise RuntimeError("engine blew up")
+            if block.keep is not None and not block.keep[k]:
+                continue  # a samples-only stepper reads nothing between samples
             com, r, w = self.pose(k)
             block.com[i], block.rot[i], block.omega[i] = com, r.ravel(), w
             block.ncon[i], block.pen[i] = 2 + k % 3, 1e-6 * (k % 7)
-            block.n = i + 1
+            i = block.n = i + 1
 
 
 def per_step(scene, stepper: FakeStepper) -> Recorder:
@@ -156,18 +159,6 @@ class SampledFakeStepper(FakeStepper):
     """The fake, reading the state at the output samples only (as the engine adapters do)."""
 
     samples_only = True
-
-    def advance(self, k0: int, k1: int, block: StepBlock) -> None:
-        i = 0
-        for k in range(k0, k1):
-            if self.raise_at is not None and k == self.raise_at:
-                raise RuntimeError("engine blew up")
-            if block.keep is not None and not block.keep[k]:
-                continue
-            com, r, w = self.pose(k)
-            block.com[i], block.rot[i], block.omega[i] = com, r.ravel(), w
-            block.ncon[i], block.pen[i] = 2 + k % 3, 1e-6 * (k % 7)
-            i = block.n = i + 1
 
 
 @pytest.mark.parametrize(
