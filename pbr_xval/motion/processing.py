@@ -5,7 +5,8 @@ Every step is explicit (nothing is applied unless asked) and recorded in the rec
 (``Scene.info()["excitation"]``) and so in every trajectory's provenance.
 
 * :func:`baseline_correct` — remove the mean, a linear trend or a least-squares polynomial
-  (``scipy.signal.detrend`` / ``numpy.polynomial``): raw lab records carry offsets and drifts.
+  (:mod:`pbr_xval.motion.portable`, the same bits on every CPU / ``numpy.polynomial``): raw lab
+  records carry offsets and drifts.
 * :func:`butterworth` — Butterworth high-, low- or band-pass (``scipy.signal.butter`` as
   second-order sections), zero-phase (``sosfiltfilt``) or causal (``sosfilt``).
 * :func:`project_components` — two horizontal components H1, H2 with their directions,
@@ -23,6 +24,7 @@ from typing import Any, overload
 import numpy as np
 from scipy.signal import resample_poly
 
+from . import portable
 from .base import GroundMotion
 from .intensity import peak_ground_acceleration, peak_ground_velocity
 from .records import Record
@@ -132,23 +134,21 @@ def baseline_correct(record: Record, kind: str = "linear", order: int = 2) -> Re
     Returns a new :class:`Record` (m/s²) with the step, the removed offset (m/s²) and, for a
     line, the removed slope (m/s³) appended to ``metadata["processing"]``.
     """
-    from scipy import signal
 
     a = np.asarray(record.acc, dtype=float)
     if kind == "none":
         return record
     if kind == "mean":
-        out = signal.detrend(a, type="constant")
+        out = portable.detrend(a, "constant")
         step: dict[str, object] = {"step": "baseline", "kind": "mean", "removed_mean_m_s2": float(a.mean())}
     elif kind == "linear":
-        out = signal.detrend(a, type="linear")
-        t = record.time - record.t0
-        slope, icpt = np.polyfit(t, a, 1)
+        out = portable.detrend(a, "linear")
+        icpt, slope_per_sample = portable.linear_fit(a)
         step = {
             "step": "baseline",
             "kind": "linear",
             "removed_offset_m_s2": float(icpt),
-            "removed_slope_m_s3": float(slope),
+            "removed_slope_m_s3": float(slope_per_sample / record.dt),
         }
     elif kind == "polynomial":
         if not (isinstance(order, int) and 0 <= order <= 10):
@@ -177,7 +177,8 @@ def butterworth(
     """Butterworth filter of ``record``: high-pass (``highpass_hz`` only), low-pass
     (``lowpass_hz`` only) or band-pass (both), corners in Hz, ``order`` poles per corner.
 
-    ``zero_phase`` filters forward and backward (:func:`scipy.signal.sosfiltfilt`: no phase
+    ``zero_phase`` filters forward and backward (:func:`pbr_xval.motion.portable.sosfiltfilt`,
+    scipy's ``sosfiltfilt`` without its LAPACK solve, so the same bits on every CPU: no phase
     shift, magnitude response squared); otherwise causal (:func:`scipy.signal.sosfilt`).
 
     Raises
@@ -207,7 +208,7 @@ def butterworth(
         sos = signal.butter(order, lowpass_hz, "lowpass", fs=1.0 / record.dt, output="sos")
         kind = "lowpass"
     a = np.asarray(record.acc, dtype=float)
-    out = signal.sosfiltfilt(sos, a) if zero_phase else signal.sosfilt(sos, a)
+    out = portable.sosfiltfilt(sos, a) if zero_phase else signal.sosfilt(sos, a)
     step = {
         "step": "filter",
         "kind": f"Butterworth {kind}",
@@ -216,7 +217,7 @@ def butterworth(
         "order": order,
         "zero_phase": bool(zero_phase),
         "implementation": "scipy.signal.butter(output='sos') + "
-        + ("sosfiltfilt" if zero_phase else "sosfilt"),
+        + ("pbr_xval.motion.portable.sosfiltfilt" if zero_phase else "sosfilt"),
     }
     return _processed(record, out, step)
 

@@ -55,7 +55,8 @@ class Baseline:
     Attributes
     ----------
     detrend : {"linear", "constant", "none"}
-        :func:`scipy.signal.detrend` type applied first (removes the recorder's offset).
+        Detrend applied first (removes the recorder's offset): :func:`pbr_xval.motion.portable.detrend`,
+        the operation of :func:`scipy.signal.detrend` computed the same way on every CPU.
     highpass_hz : float or None
         Corner of a zero-phase Butterworth high-pass (Hz); removes the drift a shake table
         cannot reproduce (its stroke is finite). None: no high-pass.
@@ -129,9 +130,11 @@ def baseline_correct(
     """
     from scipy import signal
 
+    from pbr_xval.motion import portable
+
     a = np.asarray(acc, dtype=np.float64)
     if baseline.detrend != "none":
-        a = signal.detrend(a, type=baseline.detrend)
+        a = portable.detrend(a, baseline.detrend)
     fs = 1.0 / dt
     nyq = fs / 2
     hp = baseline.highpass_hz
@@ -145,7 +148,7 @@ def baseline_correct(
     else:
         sos = None
     if sos is not None:
-        a = np.asarray(signal.sosfiltfilt(sos, a), dtype=np.float64)
+        a = portable.sosfiltfilt(sos, a)  # scipy's algorithm without LAPACK: the same bits on every CPU
     if baseline.resample_hz:
         ratio = fs / baseline.resample_hz
         down = round(ratio)
