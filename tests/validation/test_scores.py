@@ -1,0 +1,217 @@
+"""Probabilistic scores, reliability bins and the logistic baselines (pbr_xval.validation.scores).
+
+Reference values are computed by hand from the definitions (not with scikit-learn, which the
+module uses), and the logistic fits are checked on data drawn from a known logistic law.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pbr_xval.validation.metrics import group_folds
+from pbr_xval.validation.scores import (
+    LOG_LOSS_EPS,
+    RockGeometry,
+    fit_logistic,
+    logistic_baselines,
+    logistic_out_of_fold,
+    normalised_ims,
+    probabilistic_scores,
+    reliability,
+    transferred_baseline,
+)
+
+from .conftest import BOX_SCENARIO, SHAKE_TABLE
+
+
+# ------------------------------------------------------------------ scores against hand values
+def test_scores_match_hand_computed_values() -> None:
+    o = [1, 0, 1, 0, 1]
+    p = [0.9, 0.2, 0.3, 0.4, 0.4]
+    s = probabilistic_scores(o, p)
+    # Brier: (0.1² + 0.2² + 0.7² + 0.4² + 0.6²)/5 = (0.01 + 0.04 + 0.49 + 0.16 + 0.36)/5
+    assert s["brier"] == pytest.approx(1.06 / 5, abs=1e-12)
+    # log loss: −mean(ln 0.9, ln 0.8, ln 0.3, ln 0.6, ln 0.4)
+    ll = -(math.log(0.9) + math.log(0.8) + math.log(0.3) + math.log(0.6) + math.log(0.4)) / 5
+    assert s["log_loss"] == pytest.approx(ll, abs=1e-12)
+    # AUC over the 3 × 2 (toppled, stood) pairs: 0.9 > 0.2, 0.9 > 0.4, 0.3 > 0.2, 0.3 < 0.4,
+    # 0.4 > 0.2, 0.4 = 0.4 (½) → 4.5 / 6
+    assert s["auc"] == pytest.approx(0.75, abs=1e-12)
+    # at P ≥ 0.5 only the first test is predicted toppled: TP 1, FN 2, FP 0, TN 2, F1 = 2/(2+2)
+    assert (s["tp"], s["fp"], s["fn"], s["tn"], s["n"]) == (1, 0, 2, 2, 5)
+    assert s["f1"] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_deterministic_predictions_are_scored_with_the_clip() -> None:
+    o = [1, 0, 1, 0]
+    p = [1.0, 0.0, 0.0, 0.0]  # one missed topple
+    s = probabilistic_scores(o, p)
+    assert s["brier"] == pytest.approx(0.25, abs=1e-12)  # the error rate
+    eps = LOG_LOSS_EPS
+    assert s["log_loss"] == pytest.approx((-3 * math.log(1 - eps) - math.log(eps)) / 4, abs=1e-12)
+    assert s["log_loss_eps"] == eps
+    # pairs: 1 > 0, 1 > 0, 0 = 0 (½), 0 = 0 (½) → 3 / 4
+    assert s["auc"] == pytest.approx(0.75, abs=1e-12)
+    assert s["f1"] == pytest.approx(2 / 3, abs=1e-12)
+
+
+def test_one_class_gives_nan_auc_and_bad_input_is_refused() -> None:
+    s = probabilistic_scores([0, 0, 0], [0.1, 0.2, 0.0])
+    assert math.isnan(s["auc"])
+    assert s["brier"] == pytest.approx((0.01 + 0.04) / 3, abs=1e-12)
+    assert math.isnan(s["f1"])  # no topple observed nor predicted: 0/0
+    with pytest.raises(ValueError, match="probabilities"):
+        probabilistic_scores([0, 1], [0.5, math.nan])
+    with pytest.raises(ValueError, match="0/1"):
+        probabilistic_scores([0, 2], [0.5, 0.5])
+
+
+def test_reliability_bins_and_counts() -> None:
+    o = [0, 0, 1, 1, 1, 0]
+    p = [0.05, 0.15, 0.12, 0.95, 1.0, 0.55]
+    r = reliability(o, p, n_bins=10)
+    assert r["n"].sum() == len(p)
+    assert r["n"].tolist() == [1, 2, 1, 2]
+    assert r["bin_lo"].tolist() == pytest.approx([0.0, 0.1, 0.5, 0.9])
+    assert r["bin_hi"].tolist() == pytest.approx([0.1, 0.2, 0.6, 1.0])
+    assert r["mean_predicted"].tolist() == pytest.approx([0.05, 0.135, 0.55, 0.975])
+    assert r["observed_frequency"].tolist() == pytest.approx([0.0, 0.5, 0.0, 1.0])
+    rng = np.random.default_rng(3)
+    q = rng.uniform(size=137)
+    for strategy in ("uniform", "quantile"):
+        rq = reliability(rng.uniform(size=137) < q, q, n_bins=7, strategy=strategy)
+        assert rq["n"].sum() == 137
+
+
+# ------------------------------------------------------------------ logistic baselines
+def _logistic_sample(n: int, b0: float, b1: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    x = rng.normal(0.5, 0.8, n)
+    o = (rng.uniform(size=n) < 1 / (1 + np.exp(-(b0 + b1 * x)))).astype(int)
+    return x, o
+
+
+def test_logistic_fit_recovers_a_known_law_within_sampling_error() -> None:
+    b0, b1 = -1.0, 2.5
+    x, o = _logistic_sample(3000, b0, b1, seed=11)
+    fit = fit_logistic(x, o, features=["ln_pga"])
+    # standard errors from the Fisher information at the fit (independent of scikit-learn)
+    X = np.column_stack([np.ones_like(x), x])
+    q = fit.predict(x)
+    cov = np.linalg.inv(X.T @ (X * (q * (1 - q))[:, None]))
+    se = np.sqrt(np.diag(cov))
+    assert abs(fit.intercept - b0) < 4 * se[0]
+    assert abs(fit.coef[0] - b1) < 4 * se[1]
+    assert fit.features == ("ln_pga",)
+
+
+def test_out_of_fold_probability_ignores_the_tests_own_label() -> None:
+    x, o = _logistic_sample(120, -0.5, 2.0, seed=5)
+    records = [f"rec{i // 5}" for i in range(x.size)]  # 24 records of 5 tests
+    folds = group_folds(records, 4)
+    p, fits = logistic_out_of_fold(x, o, folds)
+    assert len(fits) == 4 and np.all((p > 0) & (p < 1))
+    for i in (0, 37, 119):
+        flipped = o.copy()
+        flipped[i] = 1 - flipped[i]
+        q, _ = logistic_out_of_fold(x, flipped, folds)
+        same = folds == folds[i]
+        np.testing.assert_array_equal(q[same], p[same])  # its whole fold is untouched
+        assert not np.allclose(q[~same], p[~same])  # the other folds did see the flip
+
+
+def test_logistic_baselines_names_and_features() -> None:
+    rng = np.random.default_rng(2)
+    n = 200
+    pga = np.exp(rng.normal(0.5, 0.6, n))  # m/s²
+    pgv = pga * np.exp(rng.normal(-2.5, 0.4, n))  # m/s
+    o = (rng.uniform(size=n) < 1 / (1 + np.exp(-(3.0 * np.log(pgv) + 6.0)))).astype(int)
+    folds = group_folds([f"r{i // 8}" for i in range(n)], 4)
+    res = logistic_baselines(pga, pgv, o, folds)
+    assert list(res) == ["logistic(lnPGA)", "logistic(lnPGV)", "logistic(lnPGA,lnPGV)"]
+    briers = {k: probabilistic_scores(o, v)["brier"] for k, v in res.items()}
+    # the outcome depends on PGV only: the PGV models beat the PGA one
+    assert briers["logistic(lnPGV)"] < briers["logistic(lnPGA)"]
+    assert briers["logistic(lnPGA,lnPGV)"] < briers["logistic(lnPGA)"]
+    single, _ = logistic_out_of_fold(np.log(pgv), o, folds)
+    np.testing.assert_allclose(res["logistic(lnPGV)"], single)
+
+
+# ------------------------------------------------------------------ transferred baseline
+def test_block_geometry_and_from_scene(tmp_path) -> None:
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.scene import compile_scene
+
+    g = RockGeometry.block(0.1, 0.4)
+    assert g.alpha == pytest.approx(math.atan(0.25))
+    assert g.R == pytest.approx(math.sqrt(0.17))
+    assert g.p == pytest.approx(math.sqrt(3 * 9.81 / (4 * math.sqrt(0.17))))
+    path = tmp_path / "box.toml"
+    path.write_text(BOX_SCENARIO)  # 0.2 × 0.2 × 0.8 m block
+    scene = compile_scene(load_scenario(path))
+    gs = RockGeometry.from_scene(scene)
+    assert gs.alpha == pytest.approx(math.atan(0.25), abs=1e-6)  # toward a face, not a diagonal
+    assert gs.R == pytest.approx(math.sqrt(0.17), rel=1e-6)
+    # general form √(m g R / I_O) equals the block's √(3g/4R)
+    assert gs.p == pytest.approx(math.sqrt(3 * scene.gravity / (4 * gs.R)), rel=1e-6)
+    assert round(math.degrees(gs.azimuth)) % 90 == 0
+
+
+def test_transferred_baseline_recovers_a_normalised_law() -> None:
+    rng = np.random.default_rng(7)
+    source_geom = RockGeometry.block(0.10, 0.40)  # slender, small
+    target_geom = RockGeometry.block(0.25, 0.60)  # stockier, larger
+    b = (1.0, 0.8, 3.0)  # logit P = b0 + b1 x1 + b2 x2 in the normalised measures
+
+    def draw(n: int, geom: RockGeometry) -> pd.DataFrame:
+        pga = geom.uplift * np.exp(rng.normal(0.3, 0.7, n))
+        pgv = pga * np.exp(rng.normal(-2.3, 0.5, n))
+        x = normalised_ims(pga, pgv, geom)
+        p = 1 / (1 + np.exp(-(b[0] + x @ np.array(b[1:]))))
+        return pd.DataFrame(
+            {"pga": pga, "pgv": pgv, "p_true": p, "observed": (rng.uniform(size=n) < p).astype(int)}
+        )
+
+    src = draw(4000, source_geom)
+    tgt = draw(300, target_geom)
+    res = transferred_baseline(tgt[["pga", "pgv"]], src, target_geom, source_geom)
+    assert res.p.shape == (300,)
+    assert np.max(np.abs(res.p - tgt["p_true"])) < 0.06
+    assert res.fit.coef[1] == pytest.approx(b[2], rel=0.15)
+    # without the geometry (the source's law applied to raw ln PGA, ln PGV) the target is far off
+    raw = fit_logistic(np.log(src[["pga", "pgv"]].to_numpy()), src["observed"])
+    naive = raw.predict(np.log(tgt[["pga", "pgv"]].to_numpy()))
+    assert np.mean(np.abs(naive - tgt["p_true"])) > 3 * np.mean(np.abs(res.p - tgt["p_true"]))
+
+
+# ------------------------------------------------------------------ the shared shake-table data
+#: out-of-fold Brier of the logistic baselines on the calibration half (sheet PGA and PGV,
+#: 4 folds by record), as quoted in docs/validation.md ("Probabilistic baselines")
+DOCUMENTED_BRIER = {
+    1: {"logistic(lnPGA)": 0.2017, "logistic(lnPGV)": 0.1025, "logistic(lnPGA,lnPGV)": 0.0974},
+    2: {"logistic(lnPGA)": 0.1750, "logistic(lnPGV)": 0.0993, "logistic(lnPGA,lnPGV)": 0.0993},
+}
+
+
+@pytest.mark.skipif(not (SHAKE_TABLE / "experiments.csv").is_file(), reason="shared shake-table data absent")
+@pytest.mark.parametrize("specimen", [1, 2])
+def test_documented_logistic_baselines_on_the_shared_campaign(specimen: int) -> None:
+    from pbr_xval.validation.campaign import G_STANDARD, load_campaign
+
+    camp = load_campaign(SHAKE_TABLE, specimen)
+    pga = np.array([t.sheet["pga_g"] * G_STANDARD for t in camp.tests])
+    pgv = pga * np.array([t.sheet["pgv_over_pga_s"] for t in camp.tests])
+    o = np.array([int(t.toppled) for t in camp.tests])
+    folds = group_folds([t.motion for t in camp.tests], 4)
+    res = logistic_baselines(pga, pgv, o, folds)
+    got = {k: probabilistic_scores(o, v)["brier"] for k, v in res.items()}
+    # Tolerance 1e-3: the numbers are deterministic (fixed folds, data and C). Measured: the
+    # solver's stopping rule (lbfgs tol 1e-4 vs 1e-10) moves them by < 1e-5 and the weak penalty
+    # (C = 100 vs 1e6, i.e. none) by < 5e-5; 1e-3 leaves room for other library versions and is
+    # a fifteenth of the issue's 15 % margin on these Briers (≈ 0.015).
+    for k, v in DOCUMENTED_BRIER[specimen].items():
+        assert got[k] == pytest.approx(v, abs=1e-3), k
