@@ -116,11 +116,14 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     from pbr_xval.engine import get_engine
 
-    dt0 = float(get_engine(a.engine).profiles()["faithful"]["timestep"])
     names = [v.strip() for v in a.variants.split(",") if v.strip()]
     unknown = sorted(set(names) - set(VARIANTS))
     if unknown or "base" not in names:
         p.error(f"--variants: {unknown or 'base missing'}: expected 'base' and any of {', '.join(VARIANTS)}")
+    faithful = get_engine(a.engine).profiles()["faithful"]
+    if "timestep" not in faithful and any(VARIANTS[n][1] for n in names):
+        p.error(f"--variants: engine {a.engine!r} has no time step to perturb")
+    dt0 = float(faithful.get("timestep", 0.0))
     outcomes: dict[str, pd.DataFrame] = {}
     for name in names:
         keys, factors = VARIANTS[name]
