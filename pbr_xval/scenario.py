@@ -556,6 +556,11 @@ class Scenario(Strict):
     engines: dict[str, dict[str, Any]] = Field(
         default_factory=dict, description="per-engine settings overrides, e.g. [engines.mujoco]"
     )
+    uncertainty: dict[str, Any] | None = Field(
+        None,
+        description="ensemble: distributions of dotted scenario keys, engines mixture, members, seed, "
+        "sampling (pbr_xval.uncertainty; docs/scenarios.md); single runs use the values written above",
+    )
 
     # where relative paths are resolved (set by load_scenario); not part of the content
     _base_dir: Path = Path(".")
@@ -614,8 +619,17 @@ class Scenario(Strict):
 
     # -------------------------------------------------------------- hashing
     def normalised(self) -> dict[str, Any]:
-        """Content with defaults filled in, JSON types only (the input to the hash)."""
-        return self.model_dump(mode="json", exclude={"description"})
+        """Content with defaults filled in, JSON types only (the input to the hash).
+
+        ``[uncertainty]`` enters in its parsed form (defaults filled in, dotted keys flat); a
+        scenario without one hashes as before the table existed.
+        """
+        d = self.model_dump(mode="json", exclude={"description", "uncertainty"})
+        if self.uncertainty is not None:
+            from pbr_xval.uncertainty import parse_uncertainty
+
+            d["uncertainty"] = parse_uncertainty(self.uncertainty).normalised()
+        return d
 
     def content_hash(self) -> str:
         """SHA-256 over the normalised content and the SHA-256 of every referenced file."""
@@ -646,6 +660,13 @@ class Scenario(Strict):
                 raise ScenarioError(f"scenario {self.name!r}: no table {p!r} on the way to key {key!r}")
             node = node[p]
         node[parts[-1]] = value
+        out = _validate(data, self._source)
+        out._base_dir = self._base_dir
+        out._source = self._source
+        return out
+
+    def from_tables(self, data: dict[str, Any]) -> Scenario:
+        """Another scenario validated from ``data``, read from this one's file (paths, messages)."""
         out = _validate(data, self._source)
         out._base_dir = self._base_dir
         out._source = self._source
@@ -752,9 +773,26 @@ def _strip_tags(loc: tuple[Any, ...]) -> list[str]:
 
 def _validate(data: dict[str, Any], source: Path | None) -> Scenario:
     try:
-        return Scenario.model_validate(data)
+        scn = Scenario.model_validate(data)
     except ValidationError as exc:
         raise ScenarioError(_format_errors(exc, source)) from None
+    if scn.uncertainty is not None:
+        _check_uncertainty(scn, source)
+    return scn
+
+
+def _check_uncertainty(scn: Scenario, source: Path | None) -> None:
+    """The ``[uncertainty]`` table: parameters, then every key against the scenario."""
+    from pbr_xval.uncertainty import UncertaintyError, check_keys, parse_uncertainty
+
+    where = str(source) if source else "<scenario>"
+    try:
+        spec = parse_uncertainty(scn.uncertainty or {}, where)
+    except UncertaintyError as exc:
+        raise ScenarioError(str(exc)) from None
+    lines = check_keys(scn, spec, where)
+    if lines:
+        raise ScenarioError("\n".join(lines))
 
 
 def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:

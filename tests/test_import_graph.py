@@ -48,7 +48,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     # scan → rock model; ground motions
     ("model", ("pbr_xval.geometry", "pbr_xval.geometry.*", "pbr_xval.motion", "pbr_xval.motion.*")),
     # what the user writes
-    ("scenario", ("pbr_xval.scenario", "pbr_xval.plausibility")),
+    ("scenario", ("pbr_xval.scenario", "pbr_xval.plausibility", "pbr_xval.uncertainty")),
     # what is simulated
     ("scene", ("pbr_xval.scene",)),
     # the engine interface, the trajectory and its engine-neutral diagnostics

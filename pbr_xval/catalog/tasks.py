@@ -220,6 +220,8 @@ def scenario_dict(spec: ChunkSpec, motion: dict[str, Any], mu: float, seed: int)
     shape = r["shape"]
     if shape == "scenario":  # a whole scenario (pbr-xval validate): only motion, name, duration, seed change
         d = json.loads(json.dumps(r["scenario"]))
+        if "member" in motion:  # an ensemble member (pbr_xval.uncertainty): its values, its seed
+            return _member_scenario_dict(spec, d, motion)
         exc = {**motion["excitation"], "path": motion["path"]}
         exc.setdefault("azimuth_deg", d.get("excitation", {}).get("azimuth_deg", 0.0))
         dur = (
@@ -257,6 +259,31 @@ def scenario_dict(spec: ChunkSpec, motion: dict[str, Any], mu: float, seed: int)
         "contact": {"friction_static": float(mu), "restitution": r.get("restitution", 0.0)},
         "excitation": exc,
     }
+
+
+def _member_scenario_dict(spec: ChunkSpec, d: dict[str, Any], motion: dict[str, Any]) -> dict[str, Any]:
+    """An ensemble member's scenario: the rock's full scenario tables with the member's values.
+
+    ``motion["kind"] == "scenario"`` (``pbr-xval predict``) keeps the scenario's own excitation,
+    duration, name (``<name>__m<member>``) and seed, so the member's scenario is exactly
+    :func:`pbr_xval.uncertainty.member_scenario`; a ``record`` motion (``validate --ensemble``)
+    replaces the excitation (keeping its azimuth) and the duration as for a deterministic test.
+    """
+    from pbr_xval.uncertainty import apply_values, member_name
+
+    apply_values(d, motion["values"], spec.engine)
+    if motion["kind"] == "scenario":
+        d["name"] = member_name(d["name"], int(motion["member"]))
+        return d
+    exc = {**motion["excitation"], "path": motion["path"]}
+    exc.setdefault("azimuth_deg", d.get("excitation", {}).get("azimuth_deg", 0.0))
+    dur = float(motion.get("duration", 0.0)) + spec.tail if spec.duration == "auto" else float(spec.duration)
+    d.update(
+        name=re.sub(r"[^A-Za-z0-9_.\-]", "_", f"{spec.rock['id']}__{motion['id']}"),
+        duration=dur,
+        excitation=exc,
+    )
+    return d
 
 
 def _limit_threads() -> None:
@@ -300,6 +327,8 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
         t0 = time.perf_counter()
         try:
             scn = scenario_from_dict(scenario_dict(spec, m, mu, seed))
+            if "member" in m:  # an ensemble member's own friction
+                row["mu"] = float(scn.contact.friction_static)
             scene = compile_scene(scn)
             im = intensity_measures(scene.excitation.horizontal, periods=())
             row["pga"], row["pgv"] = float(im["PGA"]), float(im["PGV"])

@@ -10,6 +10,7 @@ from pbr_xval.cli import simulate  # noqa: F401  # isort: skip
 from pbr_xval.cli import rock, report, catalog  # noqa: F401  # isort: skip
 from pbr_xval.cli import hazard  # noqa: F401  # isort: skip
 from pbr_xval.cli import validate  # noqa: F401  # isort: skip
+from pbr_xval.cli import predict  # noqa: F401  # isort: skip
 from pbr_xval.cli._app import app
 
 __all__ = ["app", "main"]
