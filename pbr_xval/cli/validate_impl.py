@@ -39,7 +39,7 @@ def validate_command(
     from pbr_xval.engine import get_engine
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
-    from pbr_xval.validation.report import evaluate, f1_lines, write_report
+    from pbr_xval.validation.report import brier_lines, evaluate, f1_lines, write_report
     from pbr_xval.validation.runner import run_campaign
 
     console = console or Console()
@@ -123,6 +123,8 @@ def validate_command(
             soft_wrap=True,
         )
     for line in f1_lines(res):
+        print(line, flush=True)
+    for line in brier_lines(res):  # every model: engines (0/1), rules, logistic baselines
         print(line, flush=True)
     console.print(f"wrote {escape(str(paths['html']))}, outcomes.csv, scores.csv ({wall:.1f} s)")
     bad = sum(res.failures.values()) + summary.failed

@@ -234,7 +234,7 @@ def fit_logistic(
 
 def logistic_out_of_fold(
     X: ArrayLike, observed: ArrayLike, folds: ArrayLike, *, C: float = LOGISTIC_C
-) -> tuple[np.ndarray, list[LogisticFit]]:
+) -> tuple[np.ndarray, list[LogisticFit | None]]:
     """Out-of-fold P(topple): each fold predicted by :func:`fit_logistic` on the other folds.
 
     Parameters
@@ -246,7 +246,9 @@ def logistic_out_of_fold(
 
     Returns
     -------
-    (p, fits): p (n,) [–], a test's P never depends on its own outcome; fits, one per fold.
+    (p, fits): p (n,) [–], a test's P never depends on its own outcome; fits, one per fold
+    (None for a fold whose training folds hold one outcome only: no logistic law can be fitted,
+    and its tests get that base rate, 0 or 1, the constant model's prediction).
     """
     x = np.asarray(X, dtype=float)
     x = x[:, None] if x.ndim == 1 else x
@@ -255,9 +257,13 @@ def logistic_out_of_fold(
     if f.shape != o.shape:
         raise ValueError(f"folds {f.shape} and observed {o.shape} do not match")
     p = np.full(o.size, math.nan)
-    fits = []
+    fits: list[LogisticFit | None] = []
     for k in np.unique(f):
         held = f == k
+        if np.unique(o[~held]).size < 2:  # no contrast to fit: the training folds' base rate
+            p[held] = float(o[~held].mean())
+            fits.append(None)
+            continue
         fit = fit_logistic(x[~held], o[~held], C=C)
         p[held] = fit.predict(x[held])
         fits.append(fit)

@@ -124,6 +124,16 @@ def test_out_of_fold_probability_ignores_the_tests_own_label() -> None:
         assert not np.allclose(q[~same], p[~same])  # the other folds did see the flip
 
 
+def test_a_fold_without_contrast_gets_the_base_rate() -> None:
+    x = np.arange(8.0)
+    o = np.array([0, 0, 0, 1, 1, 1, 0, 0])
+    folds = np.array([0, 0, 0, 0, 0, 0, 1, 1])  # fold 0 is predicted from standing tests only
+    p, fits = logistic_out_of_fold(x, o, folds)
+    assert fits[0] is None and np.all(p[folds == 0] == 0.0)
+    # fold 1's training tests are separable: the weak penalty keeps the fit finite
+    assert fits[1] is not None and np.all((p[folds == 1] > 0.5) & (p[folds == 1] < 1))
+
+
 def test_logistic_baselines_names_and_features() -> None:
     rng = np.random.default_rng(2)
     n = 200
@@ -215,3 +225,88 @@ def test_documented_logistic_baselines_on_the_shared_campaign(specimen: int) -> 
     # a fifteenth of the issue's 15 % margin on these Briers (≈ 0.015).
     for k, v in DOCUMENTED_BRIER[specimen].items():
         assert got[k] == pytest.approx(v, abs=1e-3), k
+
+
+# ------------------------------------------------------------------ report pieces
+def _result_with_probabilities():
+    from pbr_xval.validation.report import ValidationResult, add_model
+
+    oc = pd.DataFrame(
+        {
+            "test": ["1", "2", "3", "4"],
+            "pga_m_s2": [1.0, 3.0, 6.0, 8.0],
+            "pgv_m_s": [0.1, 0.3, 0.9, 1.2],
+            "pgv_over_pga_s": [0.1, 0.1, 0.15, 0.15],
+            "observed": [0, 0, 1, 1],
+            "pred_e": [0, 1, 1, None],  # the last run failed
+        }
+    )
+    row = {"model": "e", "kind": "physics", "evaluated_on": "all tests", "n": 3, "tp": 1, "fp": 1, "fn": 0,
+           "tn": 1, "accuracy": 2 / 3, "precision": 0.5, "recall": 1.0, "f1": 2 / 3,
+           "brier": 1 / 3, "log_loss": math.nan, "auc": 0.75}  # fmt: skip
+    res = ValidationResult(oc, pd.DataFrame([row]), ["e"], "record", 2)
+    add_model(res, "ensemble", [0.1, 0.6, 0.8, math.nan], kind="ensemble", evaluated_on="all tests")
+    return res
+
+
+def test_add_model_and_brier_lines() -> None:
+    from pbr_xval.validation.report import brier_lines, f1_lines
+
+    res = _result_with_probabilities()
+    ens = res.scores.set_index("model").loc["ensemble"]
+    # the NaN test is left out: (0.1² + 0.6² + 0.2²)/3; at P ≥ 0.5: TP 1, FP 1, TN 1
+    assert ens["brier"] == pytest.approx((0.01 + 0.36 + 0.04) / 3)
+    assert (ens["n"], ens["tp"], ens["fp"], ens["fn"], ens["tn"]) == (3, 1, 1, 0, 1)
+    assert brier_lines(res) == ["Brier e 0.3333", "Brier ensemble 0.1367"]
+    assert f1_lines(res) == ["F1 e 0.6667"]  # unchanged: engines only
+
+
+def test_probabilistic_figures_carry_units() -> None:
+    import matplotlib.pyplot as plt
+
+    from pbr_xval.validation.report import probability_plane_figure, reliability_figure
+
+    res = _result_with_probabilities()
+    fig = reliability_figure(res)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "predicted P(topple) [–]" and ax.get_ylabel() == "observed frequency [–]"
+    # the diagonal and the count of each bin
+    assert any(list(line.get_xdata()) == [0, 1] for line in ax.get_lines())
+    assert sorted(t.get_text() for t in ax.texts) == ["1", "1", "1"]
+    plt.close(fig)
+    fig = probability_plane_figure(res)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "PGA [m/s²]" and ax.get_ylabel() == "PGV/PGA [s]"
+    assert any(a.get_ylabel() == "P(topple) [–]" for a in fig.axes)  # the colour bar
+    plt.close(fig)
+
+
+def test_evaluate_scores_every_model_probabilistically(box_campaign_files, tmp_path) -> None:
+    from pbr_xval.validation.campaign import Baseline, load_campaign
+    from pbr_xval.validation.report import PROB_COLUMNS, evaluate, write_report
+    from pbr_xval.validation.runner import prepare_motions
+
+    csv, _, observed = box_campaign_files
+    camp = load_campaign(csv, 1)
+    motions = prepare_motions(
+        camp, Baseline(detrend="none", highpass_hz=None, lowpass_hz=None), tmp_path / "m"
+    )
+    wrong_first = [1 - observed[0], *observed[1:]]
+    tests = [t.test for t in camp.tests]
+    rows = pd.DataFrame(
+        {"test": tests, "engine": "fake", "toppled": wrong_first, "status": "ok", "wall_s": 0.1}
+    )
+    res = evaluate(camp, rows, motions, ["fake"], folds=3)
+    sc = res.scores.set_index("model")
+    assert set(PROB_COLUMNS) <= set(sc.columns)
+    assert sc.loc["fake", "brier"] == pytest.approx(1 / 6)  # one wrong 0/1 prediction of six
+    assert {"logistic(lnPGA)", "logistic(lnPGV)", "logistic(lnPGA,lnPGV)"} <= set(sc.index)
+    assert sc[list(PROB_COLUMNS[:2])].notna().all().all()
+    for name in ("PGA rule", "logistic(lnPGV)"):
+        assert 0 <= sc.loc[name, "brier"] <= 1
+    paths = write_report(res, tmp_path / "report", {"scenario": "box"})
+    written = pd.read_csv(paths["scores"])
+    assert {"brier", "log_loss", "auc", "f1", "tp"} <= set(written.columns)
+    page = paths["html"].read_text()
+    assert "Probabilistic scores" in page and "reliability diagram" in page
+    assert (tmp_path / "report" / "reliability.csv").is_file()

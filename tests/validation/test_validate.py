@@ -38,7 +38,10 @@ def test_validate_synthetic_box_campaign(
     assert oc["pga_m_s2"].tolist() == pytest.approx([1.0, 2.0, 6.0, 8.0, 0.5, 1.2], rel=1e-3)
     sc = pd.read_csv(out / "scores.csv").set_index("model")
     assert (sc.loc["housner", ["tp", "fp", "fn", "tn"]].tolist()) == [2, 0, 0, 4]
-    assert set(sc.index) == {"housner", "PGA rule", "PGV rule", "PGA-and-PGV rule"}
+    rules = {"PGA rule", "PGV rule", "PGA-and-PGV rule"}
+    logistic = {"logistic(lnPGA)", "logistic(lnPGV)", "logistic(lnPGA,lnPGV)"}
+    assert set(sc.index) == {"housner"} | rules | logistic
+    assert "Brier housner 0.0000" in res.output and sc.loc["housner", "brier"] == 0.0
     page = (out / "index.html").read_text()
     assert page.startswith("<!DOCTYPE html>") and "data:image/png;base64," in page and "PGV/PGA [s]" in page
     assert 'src="http' not in page  # self-contained
