@@ -5,7 +5,14 @@
     name = "my-site"
     joint = "independent"          # or "shared-events"
     rate_of_interest = 1e-4        # 1/yr, where the report compares IMs before and after
-    quantiles = [0.05, 0.5, 0.95]
+    quantiles = [0.05, 0.5, 0.95]  # needs at least 2 branches
+    normalize_weights = false      # true: rescale branch weights that do not sum to 1 (else an error)
+    allow_truncated_curve = false  # true: run a curve that starts where P_f > truncation_p_max (warned)
+    truncation_p_max = 0.01        # largest P_f accepted at a curve's lowest level
+    tail_tolerance = 0.01          # 'cut' tail: largest (1 − P_f(x_n))·λ(x_n)·T̄ accepted
+    im_of_interest = 0.3           # IM of the second headline (rate before/after), g (PGA, SA) or cm/s (PGV)
+    fragility_draws = 256          # draws per rock from the fit's intervals (0: fragility taken as known)
+    seed = 0
 
     [hazard]
     tail = "powerlaw"              # or "cut"
@@ -26,6 +33,10 @@
     age = 12000.0                       # exposure age, yr
     age_sd = 1200.0                     # yr
     age_dist = "normal"                 # normal | lognormal | fixed
+    fragility_uncertainty = "profile"   # profile (from the intervals; default when present) | ensemble | none
+    # ensemble = "fragility/members.csv"  # member fragilities (CSV rows: id, im, unit, theta, beta), one draw each
+    # vector_coef = [b0, b1, b2]          # Φ(b0 + b1 ln PGA[m/s²] + b2 ln PGV/PGA[s]) instead of 'fragility',
+                                          # with [hazard.pgv_pga] median_s, sigma_ln, slope (0), ref_pga_g (1)
 
 Paths are relative to the TOML file. Each error is one line naming the file, the table and key.
 """
@@ -44,7 +55,9 @@ from pbr_xval.hazard.survival import Age, RockInput, branches_from_quantiles
 
 __all__ = ["ConstrainConfig", "load_config"]
 
-_TOP = {"name", "joint", "rate_of_interest", "quantiles", "hazard", "rock", "description"}
+_TOP = {"name", "joint", "rate_of_interest", "quantiles", "hazard", "rock", "description", "normalize_weights",
+        "allow_truncated_curve", "truncation_p_max", "tail_tolerance", "im_of_interest", "fragility_draws", "seed"}  # fmt: skip
+_WEIGHT_TOL = 1e-6
 
 
 @dataclass
@@ -59,6 +72,13 @@ class ConstrainConfig:
     path: Path = field(default_factory=Path)
     notes: list[str] = field(default_factory=list)
     given_mean: HazardCurve | None = None
+    allow_truncated: bool = False
+    truncation_p_max: float = 0.01
+    tail_tolerance: float = 0.01
+    im_of_interest: float | None = None  # SI
+    #: rock id → FragilityDraws (pbr_xval.hazard.uncertainty), for rocks whose fragility is drawn
+    draws: dict[str, Any] = field(default_factory=dict)
+    pgv_pga: Any = None
 
 
 def _req(d: dict[str, Any], key: str, where: str, expected: str) -> Any:
@@ -103,6 +123,22 @@ def load_config(path: str | Path) -> ConstrainConfig:
     qs = tuple(float(q) for q in raw.get("quantiles", (0.05, 0.5, 0.95)))
     if not all(0 < q < 1 for q in qs):
         raise HazardInputError(f"{p}: key 'quantiles': {list(qs)}; expected values in (0, 1)")
+    flags = {}
+    for key in ("normalize_weights", "allow_truncated_curve"):
+        v = raw.get(key, False)
+        if not isinstance(v, bool):
+            raise HazardInputError(f"{p}: key '{key}': {v!r}; expected true or false")
+        flags[key] = v
+    p_max = _pos(raw.get("truncation_p_max", 0.01), str(p), "truncation_p_max")
+    tail_tol = _pos(raw.get("tail_tolerance", 0.01), str(p), "tail_tolerance")
+    n_draws = raw.get("fragility_draws", 256)
+    if not (isinstance(n_draws, int) and not isinstance(n_draws, bool) and 0 <= n_draws <= 100000):
+        raise HazardInputError(
+            f"{p}: key 'fragility_draws': {n_draws!r}; expected an integer 0–100000 (0: none)"
+        )
+    seed = raw.get("seed", 0)
+    if not (isinstance(seed, int) and not isinstance(seed, bool) and seed >= 0):
+        raise HazardInputError(f"{p}: key 'seed': {seed!r}; expected an integer ≥ 0")
     hz = _req(raw, "hazard", str(p), "a [hazard] table")
     where = f"{p} [hazard]"
     tail = hz.get("tail", "powerlaw")
@@ -134,7 +170,10 @@ def load_config(path: str | Path) -> ConstrainConfig:
             curves.append(read_hazard_curves(f, site_t, tail)[0])
             qv.append(q)
         order = sorted(range(len(qv)), key=lambda i: qv[i])
-        branches = branches_from_quantiles([curves[i] for i in order], [qv[i] for i in order])
+        try:
+            branches = branches_from_quantiles([curves[i] for i in order], [qv[i] for i in order])
+        except HazardInputError as exc:
+            raise HazardInputError(f"{where}: {exc}") from None
         notes.append("hazard given as fractile curves: each is a branch weighted by the interval between midpoints "
                      "to its neighbouring fractiles (an approximation of the distribution)")  # fmt: skip
     else:
@@ -151,26 +190,170 @@ def load_config(path: str | Path) -> ConstrainConfig:
         )
     if not branches:
         raise HazardInputError(f"{where}: no hazard curves read; expected at least one")
+    if mode == "branches":
+        given = [("weight" in b) for b in hz["branch"]]
+        wsum = sum(c.weight for c in branches)
+        if not any(given):
+            for c in branches:
+                c.weight = 1.0 / len(branches)
+            if len(branches) > 1:
+                notes.append(f"no branch weights given: {len(branches)} branches weighted equally")
+        elif not all(given):
+            raise HazardInputError(
+                f"{where}: weights given for {sum(given)} of {len(given)} branches; expected a weight on every branch"
+            )
+        elif abs(wsum - 1.0) > _WEIGHT_TOL:
+            if not flags["normalize_weights"]:
+                raise HazardInputError(
+                    f"{where}: branch weights sum to {wsum:.6g}; expected 1 (within {_WEIGHT_TOL:g}), "
+                    "or set normalize_weights = true to rescale them"
+                )
+            notes.append(f"branch weights summed to {wsum:.6g}; rescaled to 1 (normalize_weights = true)")
+    if len(branches) == 1 and "quantiles" in raw:
+        raise HazardInputError(
+            f"{p}: key 'quantiles': {list(qs)} with 1 hazard branch; fractiles need at least 2 branches "
+            "(remove 'quantiles' to run a single curve)"
+        )
+    pgv_pga = None
+    if "pgv_pga" in hz:
+        from pbr_xval.hazard.ims import G
+        from pbr_xval.hazard.vector import PgvPgaModel
+
+        m = hz["pgv_pga"]
+        w = f"{where} [hazard.pgv_pga]"
+        bad = sorted(set(m) - {"median_s", "sigma_ln", "slope", "ref_pga_g", "source"})
+        if bad:
+            raise HazardInputError(
+                f"{w}: unknown key(s) {bad}; expected median_s, sigma_ln, slope, ref_pga_g, source"
+            )
+        try:
+            pgv_pga = PgvPgaModel(_pos(_req(m, "median_s", w, "the median PGV/PGA in s"), w, "median_s"),
+                                  _pos(_req(m, "sigma_ln", w, "the ln standard deviation"), w, "sigma_ln", True),
+                                  float(m.get("slope", 0.0)), _pos(m.get("ref_pga_g", 1.0), w, "ref_pga_g") * G)  # fmt: skip
+        except HazardInputError as exc:
+            raise HazardInputError(f"{w}: {exc}") from None
+        notes.append("PGV/PGA given PGA (stated model for the vector fragilities): " + pgv_pga.describe()
+                     + (f" — {m['source']}" if "source" in m else ""))  # fmt: skip
     rocks_raw = _req(raw, "rock", str(p), "[[rock]] tables")
     rocks: list[RockInput] = []
     cache: dict[Path, dict[str, Any]] = {}
+    draws: dict[str, Any] = {}
     for i, r in enumerate(rocks_raw):
         w = f"{p} [[rock]] #{i + 1}"
         rid = str(_req(r, "id", w, "a rock id"))
         w = f"{p} [[rock]] {rid!r}"
-        f = base / str(_req(r, "fragility", w, "an NRML fragility model or fragility CSV"))
-        if f not in cache:
-            cache[f] = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
-        fid = str(r.get("function", rid))
-        if fid not in cache[f]:
-            raise HazardInputError(f"{w}: key 'function': {fid!r} not in {f} (has {sorted(cache[f])})")
+        bad = sorted(set(r) - _ROCK_KEYS)
+        if bad:
+            raise HazardInputError(f"{w}: unknown key(s) {bad}; expected some of {sorted(_ROCK_KEYS)}")
+        unc = r.get("fragility_uncertainty")
+        if unc not in (None, "profile", "ensemble", "none"):
+            raise HazardInputError(
+                f"{w}: key 'fragility_uncertainty': {unc!r}; expected profile, ensemble or none"
+            )
+        if "vector_coef" in r:
+            frag = _vector(r, w, pgv_pga)
+            if unc not in (None, "none"):
+                raise HazardInputError(
+                    f"{w}: key 'fragility_uncertainty': {unc!r}; a vector fragility is taken as fitted"
+                )
+        else:
+            f = base / str(_req(r, "fragility", w, "an NRML fragility model or fragility CSV"))
+            if f not in cache:
+                cache[f] = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
+            fid = str(r.get("function", rid))
+            if fid not in cache[f]:
+                raise HazardInputError(f"{w}: key 'function': {fid!r} not in {f} (has {sorted(cache[f])})")
+            frag = cache[f][fid]
+            d = _draws(r, w, base, frag, unc, n_draws, seed + i)
+            if d is not None:
+                draws[rid] = d
         dist = r.get("age_dist", "normal")
         try:
             age = Age(_pos(_req(r, "age", w, "the exposure age in years"), w, "age"),
                       _pos(r.get("age_sd", 0.0), w, "age_sd", allow_zero=True), dist)  # fmt: skip
         except HazardInputError as exc:
             raise HazardInputError(f"{w}: {exc}") from None
-        rocks.append(RockInput(rid, cache[f][fid], age))
+        rocks.append(RockInput(rid, frag, age))
+    im_int = None
+    if "im_of_interest" in raw:
+        from pbr_xval.hazard.ims import oq_factor, oq_unit
+
+        im0 = branches[0].im
+        im_int = _pos(raw["im_of_interest"], str(p), f"im_of_interest (in {oq_unit(im0)})") * oq_factor(im0)
     return ConstrainConfig(
-        str(raw.get("name", p.stem)), branches, rocks, joint, rate, qs, mode, p, notes, given_mean
+        str(raw.get("name", p.stem)), branches, rocks, joint, rate, qs, mode, p, notes, given_mean,
+        flags["allow_truncated_curve"], p_max, tail_tol, im_int, draws, pgv_pga,
+    )  # fmt: skip
+
+
+_ROCK_KEYS = {"id", "fragility", "function", "age", "age_sd", "age_dist", "fragility_uncertainty", "ensemble",
+              "vector_coef", "description"}  # fmt: skip
+
+
+def _vector(r: dict[str, Any], w: str, model: Any) -> Any:
+    from pbr_xval.hazard.vector import VectorFragility
+
+    coef = r["vector_coef"]
+    if not (isinstance(coef, list) and len(coef) == 3):
+        raise HazardInputError(f"{w}: key 'vector_coef': {coef!r}; expected [b0, b1, b2]")
+    try:
+        b = tuple(float(v) for v in coef)
+    except (TypeError, ValueError):
+        raise HazardInputError(f"{w}: key 'vector_coef': {coef!r}; expected three numbers") from None
+    if "fragility" in r:
+        raise HazardInputError(f"{w}: both 'fragility' and 'vector_coef'; expected one of them")
+    if model is None:
+        raise HazardInputError(
+            f"{w}: key 'vector_coef' needs a PGV/PGA model; expected [hazard.pgv_pga] with median_s and sigma_ln "
+            "(docs/hazard.md: the vector fragility)"
+        )
+    try:
+        return VectorFragility(str(r["id"]), b).on_pga(model)  # type: ignore[arg-type]
+    except HazardInputError as exc:
+        raise HazardInputError(f"{w}: {exc}") from None
+
+
+def _draws(r: dict[str, Any], w: str, base: Path, frag: Any, unc: str | None, n: int, seed: int) -> Any:
+    """The rock's fragility draws (or None: the fragility taken as known)."""
+    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.uncertainty import FragilityDraws, draws_from_profile
+
+    if "ensemble" in r:
+        if unc not in (None, "ensemble"):
+            raise HazardInputError(
+                f"{w}: key 'ensemble' with fragility_uncertainty = {unc!r}; expected 'ensemble'"
+            )
+        from pbr_xval.hazard.nrml import read_fragility_csv, read_fragility_model
+
+        f = base / str(r["ensemble"])
+        mem = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
+        bad = [m.id for m in mem.values() if m.im != frag.im]
+        if bad:
+            raise HazardInputError(
+                f"{w}: key 'ensemble': members {bad[:3]} not on {frag.im}; expected the rock's IM"
+            )
+        if len(mem) < 2:
+            raise HazardInputError(f"{w}: key 'ensemble': {len(mem)} member in {f}; expected at least 2")
+        return FragilityDraws(
+            str(r["id"]), list(mem.values()), "ensemble", f"{len(mem)} ensemble members ({f.name})"
+        )
+    if unc == "ensemble":
+        raise HazardInputError(
+            f"{w}: fragility_uncertainty = 'ensemble' needs key 'ensemble' (a member file)"
+        )
+    if unc == "none" or n == 0:
+        return None
+    finite = isinstance(frag, LognormalFragility) and all(
+        math.isfinite(v) and v > 0 for v in (*frag.theta_ci, *frag.beta_ci)
     )
+    if not finite:
+        if unc == "profile":
+            raise HazardInputError(
+                f"{w}: fragility_uncertainty = 'profile' but the fragility has no finite θ and β intervals "
+                "(a fragility CSV from pbr-xval fragility carries them)"
+            )
+        return None
+    try:
+        return draws_from_profile(frag, n, seed)
+    except HazardInputError as exc:
+        raise HazardInputError(f"{w}: {exc}") from None

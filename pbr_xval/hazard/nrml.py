@@ -292,7 +292,7 @@ def read_fragility_csv(path: str | Path) -> dict[str, LognormalFragility]:
             out[r["id"]] = LognormalFragility(
                 im, r["id"], theta=_num(r["theta"], where, "theta") * k, beta=_num(r["beta"], where, "beta"),
                 theta_ci=(opt("theta_lo", k), opt("theta_hi", k)), beta_ci=(opt("beta_lo"), opt("beta_hi")),
-                meta={"source": str(p)},
+                meta={"source": str(p), "ci_level": opt("ci_level")},
             )  # fmt: skip
         except HazardInputError as exc:
             raise HazardInputError(f"{where}: {exc}") from None
