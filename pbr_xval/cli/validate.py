@@ -51,6 +51,17 @@ def validate(
         str, typer.Option(help="intensity measures of the rules: auto | sheet | record")
     ] = "auto",
     set_: SetOpt = None,
+    ensemble: Annotated[
+        bool,
+        typer.Option(
+            "--ensemble",
+            help="also P(topple) per test from the scenario's [uncertainty] ensemble (model 'ensemble': "
+            "Brier, log loss, AUC, F1 at P ≥ 0.5); --engine restricts its engine mixture",
+        ),
+    ] = False,
+    members: Annotated[
+        int | None, typer.Option(help="--ensemble: members per test (default [uncertainty].members)")
+    ] = None,
 ) -> None:
     """Run every test of a shake-table campaign on each engine; F1 and the empirical baselines; CSV + HTML."""
     from pbr_xval.cli.validate_impl import validate_command
@@ -59,6 +70,7 @@ def validate(
         campaign, specimen=specimen, scenario=scenario, engines=engine or [], out=out, tests=tests,
         limit=limit, folds=folds, highpass=highpass, lowpass=lowpass, detrend=detrend, resample=resample, tail=tail,
         workers=workers, chunk_size=chunk_size, baseline_source=baseline_source, sets=set_, console=console,
+        ensemble=ensemble, members=members,
     )  # fmt: skip
     if code:
         raise typer.Exit(code)

@@ -30,6 +30,8 @@ def validate_command(
     sets: list[str] | None = None,
     console: Any = None,
     progress: bool = True,
+    ensemble: bool = False,
+    members: int | None = None,
 ) -> int:
     """Validate the inputs (campaign, scenario, engines) in full, run, score, write the report."""
     from rich.console import Console
@@ -51,7 +53,7 @@ def validate_command(
 
     if scenario is None:
         return fail("--scenario is required (the specimen's scenario TOML)")
-    if not engines:
+    if not engines and not ensemble:
         return fail("give at least one --engine (e.g. --engine mujoco)")
     if baseline_source not in ("auto", "sheet", "record"):
         return fail(f"--baseline-source {baseline_source!r}: expected auto, sheet or record")
@@ -77,6 +79,9 @@ def validate_command(
         settings = _parse_sets(sets)
     except Exception as exc:
         return fail(str(exc))
+    ens_spec, engines = _ensemble_inputs(scn, scenario, engines, ensemble, members)
+    if isinstance(ens_spec, str):
+        return fail(ens_spec)
     for e in engines:
         try:
             get_engine(e)
@@ -98,6 +103,14 @@ def validate_command(
         return fail(str(exc))
     wall = time.perf_counter() - t0
     res = evaluate(camp, rows, motions, engines, folds=folds, baseline_source=baseline_source)
+    ens_meta: dict[str, Any] = {}
+    if ens_spec is not None:  # issue 22: P(topple) per test from the [uncertainty] ensemble
+        from pbr_xval.validation.ensemble import run_ensemble
+
+        ens_meta = run_ensemble(
+            res, camp, motions, scn, ens_spec, out, members=members, engines=engines,
+            settings={e: settings for e in engines}, tail=tail, workers=workers, progress=progress, console=err,
+        )  # fmt: skip
     meta = {
         "campaign": str(campaign),
         "campaign_form": camp.form,
@@ -113,6 +126,7 @@ def validate_command(
         "toppling": scn.toppling.model_dump(mode="json"),
         "wall_s": round(wall, 1),
         "chunks_run_skipped_failed": f"{summary.done}/{summary.skipped}/{summary.failed}",
+        **ens_meta,
     }
     paths = write_report(res, out, meta)
     sc = res.scores
@@ -124,11 +138,39 @@ def validate_command(
         )
     for line in f1_lines(res):
         print(line, flush=True)
+    if ens_spec is not None:
+        from pbr_xval.validation.ensemble import ensemble_lines
+
+        for line in ensemble_lines(res):  # F1 ensemble (Brier ensemble is among the Brier lines)
+            print(line, flush=True)
     for line in brier_lines(res):  # every model: engines (0/1), rules, logistic baselines
         print(line, flush=True)
     console.print(f"wrote {escape(str(paths['html']))}, outcomes.csv, scores.csv ({wall:.1f} s)")
-    bad = sum(res.failures.values()) + summary.failed
+    bad = sum(res.failures.values()) + summary.failed + int(ens_meta.get("ensemble_failed_runs", 0))
     if bad:
         err.print(f"[yellow]warning:[/] {bad} run(s)/chunk(s) failed; see outcomes.csv status columns")
         return 1
     return 0
+
+
+def _ensemble_inputs(
+    scn: Any, scenario: Path, engines: list[str], ensemble: bool, members: int | None
+) -> tuple[Any, list[str]]:
+    """(the [uncertainty] spec or None, the deterministic engines); an error message instead of the spec.
+
+    Without ``--engine``, ``--ensemble`` runs the mixture's engines deterministically too (their
+    ``F1 <engine>`` lines) and the mixture as the table gives it; with it, both are restricted.
+    """
+    if not ensemble:
+        return None, engines
+    from pbr_xval.uncertainty import ensemble_spec
+
+    spec = ensemble_spec(scn)
+    if spec is None:
+        return f"--ensemble: {scenario} has no [uncertainty] table; expected one (docs/scenarios.md)", engines
+    if members is not None and not 1 <= members <= 1_000_000:
+        return f"--members {members}: expected 1 … 1000000 members per test", engines
+    mix, _ = spec.mixture(engines)
+    if not mix:
+        return "--ensemble: no engine; give --engine, or engines = [...] in [uncertainty]", engines
+    return spec, list(engines) or mix

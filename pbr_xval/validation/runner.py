@@ -74,6 +74,7 @@ def prepare_motions(campaign: Campaign, baseline: Baseline, folder: Path) -> dic
 def scenario_rock(scn: Any, rock_id: str | None = None) -> dict[str, Any]:
     """The catalog rock entry that carries a whole scenario (file paths made absolute)."""
     d = scn.model_dump(mode="json", exclude_unset=True)
+    d.pop("uncertainty", None)  # the deterministic runs use the written values (chunk hashes unchanged)
     rock = d.get("rock", {})
     if "path" in rock:
         rock["path"] = str(scn.resolve_path(rock["path"]).resolve())

@@ -1,0 +1,238 @@
+"""``pbr-xval validate --ensemble``: every test's P(topple) from the scenario's ``[uncertainty]``.
+
+Each test × member is one catalog motion (the test's corrected table record, the member's index
+and sampled values); the rock is the specimen's scenario with every table written out
+(:func:`pbr_xval.catalog.predict.ensemble_rock`). The chunk worker applies the member's values,
+then replaces the excitation by the test's motion — keeping the member's shaking azimuth — as
+for a deterministic test (:func:`pbr_xval.catalog.tasks.scenario_dict`). Chunks are one test ×
+one engine × one block of members, written to the same store as the deterministic runs
+(``<out>/store/``): a rerun, or a larger selection of tests, recomputes nothing already stored.
+
+A test's P(topple) is the share of toppled members among those that ran (NaN when none ran);
+each member's engine is drawn from the mixture (``[uncertainty].engines``, restricted by
+``--engine``). Every member of every test is written to ``ensemble_members.csv`` (test, member,
+engine, sampled values, outcome, PGA, PGV), the input of ``pbr-xval fragility --ensemble``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from pbr_xval.uncertainty import EnsembleSpec, Member
+
+__all__ = ["add_ensemble_model", "ensemble_p", "run_campaign_ensemble"]
+
+MODEL = "ensemble"
+
+
+def build_ensemble_chunks(
+    campaign: Any,
+    motions: dict[str, Any],
+    scn: Any,
+    members: list[Member],
+    *,
+    settings: dict[str, dict[str, Any]] | None = None,
+    tail: float = 3.0,
+    output_dt: float = 0.01,
+    block: int = 16,
+    profile: str | None = None,
+) -> list[Any]:
+    """One chunk per test × engine × block of ``block`` member indices."""
+    from pbr_xval.catalog.predict import ensemble_rock
+    from pbr_xval.catalog.tasks import ChunkSpec
+    from pbr_xval.validation.runner import _safe
+
+    rock = ensemble_rock(scn)
+    chunks = []
+    for t in campaign.tests:
+        mf = motions[t.test]
+        groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+        for m in members:
+            assert m.engine is not None
+            prm = {k: v for k, v in m.to_dict().items() if k != "design_members" or m.sampling == "lhs"}
+            groups.setdefault((m.engine, m.index // block), []).append(
+                {
+                    "id": f"test{_safe(t.test)}__m{m.index:04d}",
+                    "kind": "record",
+                    "excitation": {"type": "record", "format": "table", "units": "m/s2", "dt": mf.dt},
+                    "params": {"test": t.test, "motion": t.motion, **prm},
+                    "path": str(mf.path),
+                    "sha256": mf.sha256,
+                    "duration": mf.duration,
+                    "member": m.index,
+                    "values": m.values,
+                }
+            )
+        for (eng, _b), mlist in sorted(groups.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+            chunks.append(
+                ChunkSpec(
+                    catalog=f"validate_ensemble_{rock['id']}", rock=rock, motions=mlist, engine=eng,
+                    profile=profile, settings=dict((settings or {}).get(eng, {})), duration="auto",
+                    tail=float(tail), settle_time=float(scn.settle_time), output_dt=float(output_dt),
+                    catalog_seed=int(scn.seed), tag="validate_ensemble",
+                )
+            )  # fmt: skip
+    return chunks
+
+
+def run_campaign_ensemble(
+    campaign: Any,
+    motions: dict[str, Any],
+    scn: Any,
+    spec: EnsembleSpec,
+    out: Path,
+    *,
+    members: int | None = None,
+    engines: list[str] | None = None,
+    settings: dict[str, dict[str, Any]] | None = None,
+    tail: float = 3.0,
+    output_dt: float = 0.01,
+    workers: int | None = None,
+    executor: str = "local",
+    progress: bool = True,
+    console: Any = None,
+) -> tuple[pd.DataFrame, Any]:
+    """Run every test × member (resuming); (one row per test × member, sweep summary)."""
+    from pbr_xval.catalog.store import load_results
+    from pbr_xval.catalog.sweep import run_chunks
+
+    eng_list, _ = spec.mixture(engines)
+    mlist = spec.sample(members=members, engines=eng_list)
+    chunks = build_ensemble_chunks(
+        campaign, motions, scn, mlist, settings=settings, tail=tail, output_dt=output_dt
+    )
+    summary = run_chunks(
+        chunks, out / "store", executor=executor, workers=workers, progress=progress, console=console,
+        description="validate --ensemble",
+    )  # fmt: skip
+    hashes = {c.content_hash() for c in chunks}
+    rows = load_results(out / "store")
+    rows = rows[rows["chunk_hash"].isin(hashes)]
+    by_index = {m.index: m for m in mlist}
+    recs = []
+    for r in rows.itertuples():
+        prm = json.loads(r.motion_params)
+        m = by_index[int(prm["member"])]
+        rec: dict[str, Any] = {
+            "test": str(prm["test"]),
+            "record": prm["motion"],
+            "member": m.index,
+            "engine": r.engine,
+        }
+        rec.update({f"value:{k}": v for k, v in m.values.items()})
+        rec.update(
+            toppled=bool(r.toppled), status=str(r.status), pga_m_s2=r.pga, pgv_m_s=r.pgv, mu=r.mu,
+            peak_tilt_rad=r.peak_tilt, toppled_at_s=r.toppled_at, wall_s=r.wall_s,
+        )  # fmt: skip
+        recs.append(rec)
+    df = pd.DataFrame(recs)
+    if not df.empty:
+        df = df.drop_duplicates(["test", "member"]).sort_values(["test", "member"]).reset_index(drop=True)
+    return df, summary
+
+
+def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per test (in ``tests`` order): P(topple) (NaN when no member ran), members that ran, failed."""
+    p = np.full(len(tests), math.nan)
+    n_ok = np.zeros(len(tests), dtype=int)
+    n_bad = np.zeros(len(tests), dtype=int)
+    if member_rows.empty:
+        return p, n_ok, n_bad
+    g = member_rows.groupby("test")
+    for j, t in enumerate(tests):
+        if t not in g.groups:
+            continue
+        sub = g.get_group(t)
+        ok = sub["status"] == "ok"
+        n_ok[j], n_bad[j] = int(ok.sum()), int((~ok).sum())
+        if n_ok[j]:
+            p[j] = float(sub.loc[ok, "toppled"].mean())
+    return p, n_ok, n_bad
+
+
+def add_ensemble_model(res: Any, p: np.ndarray, n_ok: np.ndarray, *, evaluated_on: str) -> None:
+    """Add the ensemble's P(topple) to a validation result (``p_ensemble``, a scores row)."""
+    from pbr_xval.validation import report
+
+    add_model = getattr(report, "add_model", None)
+    if add_model is not None:
+        add_model(res, MODEL, p, kind="ensemble", evaluated_on=evaluated_on)
+    else:  # scores without the report's probabilistic models: the same row, computed here
+        from pbr_xval.validation.metrics import score
+        from pbr_xval.validation.scores import probabilistic_scores
+
+        obs = res.outcomes["observed"].to_numpy(int)
+        res.outcomes[f"p_{MODEL}"] = p
+        ok = np.isfinite(p)
+        s = score(obs[ok].astype(bool), p[ok] >= 0.5).to_dict()
+        prob = probabilistic_scores(obs[ok], p[ok])
+        row = {"model": MODEL, "kind": "ensemble", "evaluated_on": evaluated_on, **s}
+        row.update({k: prob[k] for k in ("brier", "log_loss", "auc")})
+        res.scores = pd.concat([res.scores, pd.DataFrame([row])], ignore_index=True)
+    res.outcomes[f"members_{MODEL}"] = n_ok
+
+
+def ensemble_lines(res: Any) -> list[str]:
+    """``F1 ensemble <v>``, and ``Brier ensemble <v>`` unless the report prints every model's Brier."""
+    from pbr_xval.validation import report
+
+    s = res.scores.set_index("model")
+    lines = [f"F1 {MODEL} {s.loc[MODEL, 'f1']:.4f}"]
+    if not hasattr(report, "brier_lines"):
+        lines.append(f"Brier {MODEL} {s.loc[MODEL, 'brier']:.4f}")
+    return lines
+
+
+def run_ensemble(
+    res: Any,
+    campaign: Any,
+    motions: dict[str, Any],
+    scn: Any,
+    spec: EnsembleSpec,
+    out: Path,
+    *,
+    members: int | None = None,
+    engines: list[str] | None = None,
+    settings: dict[str, dict[str, Any]] | None = None,
+    tail: float = 3.0,
+    workers: int | None = None,
+    executor: str = "local",
+    progress: bool = True,
+    console: Any = None,
+) -> dict[str, Any]:
+    """Run the ensemble of every test, add the ``ensemble`` model to ``res``, write
+    ``ensemble_members.csv``; returns what the report records about it."""
+    import time
+
+    from pbr_xval.atomic import write_text_atomic
+
+    t0 = time.perf_counter()
+    df, summary = run_campaign_ensemble(
+        campaign, motions, scn, spec, out, members=members, engines=engines, settings=settings, tail=tail,
+        workers=workers, executor=executor, progress=progress, console=console,
+    )  # fmt: skip
+    tests = [t.test for t in campaign.tests]
+    p, n_ok, n_bad = ensemble_p(df, tests)
+    n = int(members or spec.members)
+    eng_list, weights = spec.mixture(engines)
+    add_ensemble_model(
+        res, p, n_ok,
+        evaluated_on=f"all tests (no fitting): share of {n} members toppled ({spec.sampling}, seed {spec.seed})",
+    )  # fmt: skip
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "ensemble_members.csv", df.to_csv(index=False), hidden=True)
+    return {
+        "ensemble_members": n,
+        "ensemble_engines": ", ".join(eng_list),
+        "ensemble_engine_weights": weights,
+        "ensemble_uncertainty": spec.normalised(),
+        "ensemble_failed_runs": int(n_bad.sum()) + int(summary.failed),
+        "ensemble_chunks_run_skipped_failed": f"{summary.done}/{summary.skipped}/{summary.failed}",
+        "ensemble_wall_s": round(time.perf_counter() - t0, 1),
+    }
