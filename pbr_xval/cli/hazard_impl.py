@@ -139,25 +139,52 @@ def constrain_command(
     try:
         cfg = load_config(config)
         res = constrain(
-            cfg.branches, cfg.rocks, joint or cfg.joint, rate or cfg.rate_of_interest, cfg.quantiles
-        )
+            cfg.branches, cfg.rocks, joint or cfg.joint, rate or cfg.rate_of_interest, cfg.quantiles,
+            allow_truncated=cfg.allow_truncated, p_low_max=cfg.truncation_p_max, top_tol=cfg.tail_tolerance,
+            im_of_interest=cfg.im_of_interest,
+        )  # fmt: skip
     except HazardInputError as exc:
         return _error(con, str(exc))
-    sources = sorted({c.source for c in cfg.branches if c.source})
+    unc = None
     notes = list(cfg.notes) + sorted({n for c in cfg.branches for n in c.notes})
-    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources], cfg.given_mean)
+    if cfg.draws and res.joint_mode == "independent":
+        from pbr_xval.hazard.uncertainty import propagate
+
+        unc = propagate(res, cfg.branches, cfg.rocks, cfg.draws)
+        res.summary["fragility_uncertainty"] = unc.to_dict()
+    elif cfg.draws:
+        notes.append("joint = shared-events: the fragilities are taken at their fits (draws not propagated)")
+    sources = sorted({c.source for c in cfg.branches if c.source})
+    for wmsg in res.warnings:
+        con.print("[bold yellow]WARNING:[/bold yellow] " + escape(wmsg), highlight=False)
+    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources], cfg.given_mean, unc, cfg.draws)
     s = res.summary
     k = 0.01 if res.im == "PGV" else G
     u = "cm/s" if res.im == "PGV" else "g"
     con.print(escape(f"{cfg.name}: {len(cfg.branches)} branches, {len(cfg.rocks)} rocks, joint = {res.joint_mode}"),
               highlight=False)  # fmt: skip
-    for rid, p in s["rock_survival"].items():
-        con.print(f"  P_s({rid}) = {p:.3g} (prior mean)", highlight=False)
+    for i, (rid, p) in enumerate(s["rock_survival"].items()):
+        line = f"  P_s({rid}) = {p:.3g} (prior mean, fitted fragility)"
+        if unc is not None and unc.methods[i] != "none":
+            sh = unc.shares[rid]
+            line += (f"; with the fragility's uncertainty {unc.ps_mean[i]:.3g} [5–95 %: {unc.ps_band[i, 0]:.3g}–"
+                     f"{unc.ps_band[i, 1]:.3g}] ({unc.methods[i]}, {unc.n_draws[i]} draws); variance shares: hazard "
+                     f"{sh['hazard']:.0%}, fragility {sh['fragility']:.0%}, age {sh['age']:.0%}")  # fmt: skip
+        con.print(escape(line), highlight=False)
     con.print(f"  P(all survive) = {s['prior_joint_survival']:.3g} (prior mean)", highlight=False)
+    rng = (f"; 5–95 % range {s['im05_before'] / k:.3g}–{s['im95_before'] / k:.3g} → {s['im05_after'] / k:.3g}–"
+           f"{s['im95_after'] / k:.3g} {u} (width × {s['range_ratio']:.3g})" if math.isfinite(s["range_ratio"])
+           else "; one branch: no fractile range")  # fmt: skip
     con.print(escape(f"  at λ = {s['rate_of_interest']:g}/yr: mean-curve {res.im} {s['mean_im_before'] / k:.3g} → "
-                     f"{s['mean_im_after'] / k:.3g} {u} ({100 * s['mean_im_change']:+.1f} %); 5–95 % range "
-                     f"{s['im05_before'] / k:.3g}–{s['im95_before'] / k:.3g} → {s['im05_after'] / k:.3g}–"
-                     f"{s['im95_after'] / k:.3g} {u} (width × {s['range_ratio']:.3g})"), highlight=False)  # fmt: skip
+                     f"{s['mean_im_after'] / k:.3g} {u} ({100 * s['mean_im_change']:+.1f} %){rng}"), highlight=False)  # fmt: skip
+    x0 = s.get("im_of_interest", math.nan)
+    if x0 is not None and math.isfinite(x0):
+        con.print(escape(f"  at {res.im} = {x0 / k:.3g} {u}: mean annual rate {s['mean_rate_before_at_im']:.3g} → "
+                         f"{s['mean_rate_after_at_im']:.3g}/yr (× {s['mean_rate_ratio_at_im']:.3g})"), highlight=False)  # fmt: skip
+    if unc is not None:
+        lo, hi = unc.mean_im_after_band
+        con.print(escape(f"  with the fragility's uncertainty: mean-curve {res.im} at λ = {s['rate_of_interest']:g}/yr "
+                         f"{unc.mean_im_after / k:.3g} {u} [5–95 % over draws {lo / k:.3g}–{hi / k:.3g}]"), highlight=False)  # fmt: skip
     if not math.isfinite(s["mean_im_before"]):
         lo, hi = float(res.mean().min()), float(res.mean().max())
         con.print(f"  note: λ = {s['rate_of_interest']:g}/yr is outside the mean curve's range on the common IM grid "

@@ -127,7 +127,7 @@ def test_example_report_and_independent_recomputation(example):
     assert (
         "Hazard curves: branches (grey), mean and 5–95 % band before (black, grey) and after (red)." in page
     )
-    assert page.count("data:image/png;base64,") == 3 and "Poisson occurrence" in page
+    assert page.count("data:image/png;base64,") == 4 and "Poisson occurrence" in page
     assert any("width ×" in line for line in con.lines)
 
 
