@@ -39,6 +39,11 @@ td.failed .mark { color: #c62828; }
 ul.findings { margin: .2em 0; padding-left: 1.2em; }
 ul.findings li { margin: .1em 0; }
 ul.headlines { margin: .2em 0; padding-left: 1.2em; font-size: .95em; }
+p.news { margin: .3em 0 0; font-weight: 600; font-size: .92em; }
+.study-verdict h3 { margin: .6em 0 .1em; }
+.study-verdict p.ran { margin: .1em 0; }
+table.sv { font-size: .82em; }
+table.sv td { font-variant-numeric: tabular-nums; }
 .figs { display: grid; grid-template-columns: repeat(2, minmax(0, 1fr)); gap: .6em 1em; }
 figure { margin: .4em 0; }
 figure.wide { grid-column: 1 / -1; }
@@ -69,30 +74,56 @@ nav a { margin-right: 1em; }
 <ul>
 {% for sc in run_scenarios %}<li>{% if sc.label %}<strong>{{ sc.label }}</strong>: {% endif %}{{ sc.summary or sc.name }}</li>
 {% endfor %}</ul></div>
-<div><h3>Engines and settings</h3>
+<div id="engines-panel"><h3>Engines and settings</h3>
 <ul>
 {% for e in engines %}<li class="one" title="{{ e.settings_full }}"><strong>{{ e.name }}</strong> {{ e.versions_short }} — {{ e.settings_short }}</li>
-{% endfor %}</ul></div>
+{% endfor %}{% if not engines %}<li class="none">No engine ran: nothing was simulated in this report.</li>
+{% endif %}</ul></div>
 </section>
 
 <section id="verdict">
 <h2>Verdict</h2>
 {% if verdict.cases %}
+<div class="case-verdict">
 <ul class="headlines">
 {% for h in verdict_headlines %}<li>{{ h }}</li>
 {% endfor %}</ul>
+<p class="news">Disagreement beyond tolerance:</p>
+{% if verdict_findings %}<ul class="findings disagreements">
+{% for f in verdict_findings %}<li>{{ f }}</li>
+{% endfor %}</ul>{% else %}<p class="small disagreements">No disagreement beyond tolerance.</p>{% endif %}
 <table class="verdict">
 <thead><tr><th class="eng">engine</th>{% for c in verdict.cases %}<th data-case="{{ c.key }}"><a href="#{{ c.anchor }}">{{ c.title }}</a><small>vs {{ c.reference_text }}; tolerance {{ c.tolerance_text }}</small></th>{% endfor %}</tr></thead>
 <tbody>
 {% for e in verdict.engines %}<tr><th class="text eng">{{ e }}</th>{% for c in verdict.cases %}{% set cell = verdict.cells.get((e, c.key)) %}{% if cell %}<td class="{{ cell.status }}" data-engine="{{ e }}" data-case="{{ c.key }}" data-status="{{ cell.status }}"{% if cell.value is not none %} data-value="{{ cell.value }}"{% endif %}{% if cell.deviation is not none %} data-deviation="{{ cell.deviation }}"{% endif %}{% if cell.message %} title="{{ cell.message }}"{% endif %}><span class="v">{{ cell.value_text }}</span>{% if cell.deviation_text %} <span class="d">{{ cell.deviation_text }}</span>{% endif %} <span class="mark">{{ cell.mark }}</span>{% if cell.tolerance is not none %} <span class="c">(±{{ "%.2f"|format(100 * cell.tolerance) }} %)</span>{% endif %}<br><span class="c">{{ cell.cost_text }}</span></td>{% else %}<td class="none"></td>{% endif %}{% endfor %}</tr>
 {% endfor %}</tbody>
 </table>
-{% if verdict_findings %}<ul class="findings">
+</div>
+{% elif verdict_findings %}<ul class="findings disagreements">
 {% for f in verdict_findings %}<li>{{ f }}</li>
-{% endfor %}</ul>{% else %}<p class="small">No disagreement beyond tolerance.</p>{% endif %}
-{% else %}<p class="small">No threshold or fragility study in this report: no verdict table.</p>
-{% for f in verdict_findings %}<p>{{ f }}</p>{% endfor %}
+{% endfor %}</ul>
 {% endif %}
+{% for st in studies %}{% set sv = st.sv %}
+<div class="study-verdict" data-kind="{{ sv.kind }}" id="verdict-{{ sv.anchor }}">
+<h3><a href="#{{ sv.anchor }}">{{ sv.title }}</a></h3>
+<p class="small ran">Ran: {{ sv.ran }}</p>
+<ul class="headlines">
+{% for a in st.answer %}<li>{{ a }}</li>
+{% endfor %}</ul>
+<p class="news">Disagreement beyond tolerance:</p>
+{% if st.disagreements %}<ul class="findings disagreements">
+{% for d in st.disagreements %}<li>{{ d }}</li>
+{% endfor %}</ul>{% else %}<p class="small disagreements">No disagreement between engines beyond tolerance.</p>{% endif %}
+{% if sv.rows %}<table class="sv">
+<thead><tr>{% for h in sv.header %}<th>{{ h }}</th>{% endfor %}</tr></thead>
+<tbody>
+{% for row in sv.rows %}<tr>{% for c in row %}{% if loop.first %}<th class="text"{% if c.title %} title="{{ c.title }}"{% endif %}>{{ c.text }}</th>{% else %}<td{% if c.status %} class="{{ c.status }}"{% endif %}{% if c.title %} title="{{ c.title }}"{% endif %}>{{ c.text }}</td>{% endif %}{% endfor %}</tr>
+{% endfor %}</tbody>
+</table>{% endif %}
+<p class="small tolerance">Tolerance: {{ sv.tolerance }}</p>
+</div>
+{% endfor %}
+{% if verdict.empty %}<p class="small">No study in this report compares engines: no verdict.</p>{% endif %}
 {% if global_notes %}<ul class="notes">
 {% for n in global_notes %}<li>{{ n }}</li>
 {% endfor %}</ul>{% endif %}

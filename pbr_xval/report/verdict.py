@@ -10,6 +10,10 @@ A *case* is one comparison a reader cares about:
 * a fragility study (``kind == "fragility"``), per variant: the share of grid cells on which
   an engine and the analytical map disagree about toppling.
 
+Every other study (azimuth, histories, extremes, speed–accuracy trade) gets a
+:class:`~pbr_xval.report.studies.StudyVerdict` (:mod:`pbr_xval.report.studies`): what was run,
+the answer across engines, each disagreement beyond tolerance in words, and a compact table.
+
 Marks: ``pass`` (within tolerance), ``attention`` (beyond it), ``reference``, ``failed``,
 ``skipped``, ``none`` (never toppled in the scanned range). Tolerances (relative):
 
@@ -33,6 +37,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pbr_xval import units
+from pbr_xval.report.studies import StudyVerdict, study_verdict
 from pbr_xval.study.base import StudyResult
 
 __all__ = [
@@ -108,6 +113,19 @@ class Verdict:
     cells: dict[tuple[str, str], Cell] = field(default_factory=dict)
     headlines: list[str] = field(default_factory=list)  # one per case: the answer
     findings: list[str] = field(default_factory=list)  # one per disagreement / failure
+    studies: list[StudyVerdict] = field(default_factory=list)  # the other studies' verdicts
+
+    @property
+    def disagreements(self) -> list[str]:
+        """Every disagreement beyond tolerance and failure, in words (threshold cases, then studies)."""
+        out = list(self.findings)
+        for sv in self.studies:
+            out += sv.disagreements
+        return out
+
+    @property
+    def empty(self) -> bool:
+        return not self.cases and not self.studies
 
     def cell(self, engine: str, case: str) -> Cell | None:
         return self.cells.get((engine, case))
@@ -146,9 +164,12 @@ class Verdict:
 
     def markdown(self) -> list[str]:
         """The verdict as Markdown lines (summary.md)."""
+        studies = [ln for sv in self.studies for ln in sv.markdown()]
         if not self.cases:
-            return []
+            return studies
         lines = [*[f"- {h}" for h in self.headlines], ""]
+        if self.findings:
+            lines += ["Disagreements beyond tolerance:", *[f"- {f}" for f in self.findings], ""]
         lines += [
             "| case | engine | value | deviation | tolerance | mark | cost |",
             "|---|---|---|---|---|---|---|",
@@ -159,9 +180,7 @@ class Verdict:
                 f"| {r['case']} | {r['engine']} | {r['value_text']} | {r['deviation_text']} | {tol} | "
                 f"{r['status']} | {r['cost']} |"
             )
-        if self.findings:
-            lines += ["", *[f"- {f}" for f in self.findings]]
-        return lines
+        return [*lines, "", *studies]
 
 
 # ------------------------------------------------------------------ helpers
@@ -452,7 +471,17 @@ def build_verdict(results: Sequence[StudyResult], anchors: Iterable[str] | None 
                 _threshold_case(r, i, a, v)
             elif r.kind == "fragility":
                 _fragility_cases(r, i, a, v)
-        except (KeyError, ValueError, TypeError) as exc:  # a malformed table must not sink the report
+            else:
+                sv = study_verdict(r, a)
+                if sv is not None:
+                    v.studies.append(sv)
+        except (
+            KeyError,
+            ValueError,
+            TypeError,
+            AttributeError,
+            IndexError,
+        ) as exc:  # a malformed table must not sink the report
             v.findings.append(f"Section *{r.title}*: no verdict ({type(exc).__name__}: {exc}).")
     order = {n: i for i, n in enumerate(ANALYTICAL)}
     v.engines.sort(key=lambda e: (order.get(e, len(order)), 0))

@@ -52,6 +52,8 @@ __all__ = ["atomic_write_bytes", "atomic_write_text", "base_provenance", "write_
 
 #: figures wider than this (px) take the full width of the page; narrower ones sit two per row
 WIDE_PX = 760
+#: summary tables longer than this are folded (their data are linked as CSV and Parquet)
+LONG_TABLE_ROWS = 12
 
 
 # ------------------------------------------------------------------ atomic i/o
@@ -139,13 +141,21 @@ def _summary_blocks(summary: Iterable[str]) -> tuple[list[Any], list[Any]]:
         if not rows:
             return
         body = [r for r in rows if not all(re.fullmatch(r":?-{2,}:?", c.strip()) for c in r if c.strip())]
-        out = ['<table class="data">']
+        long = len(body) - 1 > LONG_TABLE_ROWS
+        out = (
+            [f"<details><summary>Table of {len(body) - 1} rows (the data links below)</summary>"]
+            if long
+            else []
+        )
+        out.append('<table class="data">')
         if body:
             out.append("<thead><tr>" + "".join(f"<th>{md_inline(c)}</th>" for c in body[0]) + "</tr></thead>")
         out.append("<tbody>")
         for r in body[1:]:
             out.append("<tr>" + "".join(f"<td>{md_inline(c)}</td>" for c in r) + "</tr>")
         out.append("</tbody></table>")
+        if long:
+            out.append("</details>")
         tables.append(Markup("".join(out)))
         rows.clear()
 
@@ -295,7 +305,55 @@ def _engines(results: Iterable[StudyResult]) -> dict[str, dict[str, Any]]:
                 for n, st in v.items():
                     if isinstance(st, Mapping):
                         slot(n)["settings"][r.title] = st
+        _engines_from_tables(r, slot)
     return out
+
+
+def _engines_from_tables(r: StudyResult, slot: Any) -> None:
+    """Versions and settings from a table's ``engine``/``settings``/``versions`` columns (JSON text)
+    for engines the study's provenance does not describe."""
+    for df in (r.tables or {}).values():
+        cols = set(getattr(df, "columns", []))
+        if "engine" not in cols or not ({"settings", "versions"} & cols):
+            continue
+        for _, row in df.iterrows():
+            name = str(row["engine"])
+            s = slot(name)
+            for key in ("versions", "settings"):
+                raw = row.get(key)
+                try:
+                    val = json.loads(raw) if isinstance(raw, str) else raw
+                except ValueError:
+                    continue
+                if not isinstance(val, Mapping) or not val:
+                    continue
+                if key == "versions":
+                    for k, v in val.items():
+                        s["versions"].setdefault(k, v)
+                elif r.title not in s["settings"]:
+                    s["settings"][r.title] = dict(val)
+
+
+def _engines_fallback(engines: dict[str, dict[str, Any]], prov: Mapping[str, Any]) -> None:
+    """Engines the run used that no study described: their registry versions and profile defaults."""
+    used = prov.get("engines_used")
+    if not isinstance(used, list | tuple):
+        return
+    for name in used:
+        if str(name) in engines:
+            continue
+        info: dict[str, Any] = {"versions": {}, "settings": {}}
+        try:
+            from pbr_xval.engine import get_engine
+
+            eng = get_engine(str(name))
+            info["versions"] = dict(eng.versions())
+            info["settings"]["faithful profile (defaults; no study recorded its settings)"] = dict(
+                eng.default_settings()
+            )
+        except Exception as exc:  # not installed: say so rather than leave the panel empty
+            info["note"] = f"not available: {exc}"
+        engines[str(name)] = info
 
 
 #: settings shown first in an engine's one-line summary
@@ -483,6 +541,7 @@ def write_report(
 
         scen = _scenarios(results, prov)
         engines = _engines(results)
+        _engines_fallback(engines, prov)
         prov["scenarios"] = scen
         prov["engines"] = engines
         prov_json = _dumps(prov)
@@ -507,6 +566,14 @@ def write_report(
             import pandas as pd
 
             atomic_write_bytes(tmp / "verdict.csv", _csv_bytes(pd.DataFrame(verdict.rows())))
+        studies = [
+            {
+                "sv": sv,
+                "answer": [md_inline(a) for a in sv.answer],
+                "disagreements": [md_inline(d) for d in sv.disagreements],
+            }
+            for sv in verdict.studies
+        ]
         html_text = tpl.render(
             title=title,
             description=description or prov.get("description", ""),
@@ -518,6 +585,7 @@ def write_report(
             verdict=verdict,
             verdict_headlines=[md_inline(h) for h in verdict.headlines],
             verdict_findings=[md_inline(f) for f in verdict.findings],
+            studies=studies,
             scenarios=scen,
             run_scenarios=[sc for sc in scen if sc.get("label")] or scen,
             engines=engine_rows,
@@ -578,7 +646,7 @@ def summary_markdown(
     ]
     if prov.get("command_line"):
         lines += [f"Command: `{prov['command_line']}`", ""]
-    if verdict.cases:
+    if not verdict.empty:
         lines += ["## Verdict", "", *verdict.markdown(), ""]
     n_bad = sum(_status(r) != "ok" for r in results)
     lines += [

@@ -212,6 +212,8 @@ def run(
 
     rows: list[dict[str, Any]] = []
     skipped: dict[str, str] = {}
+    settings_used: dict[str, dict[str, Any]] = {}
+    versions_used: dict[str, dict[str, str]] = {}
     n_total = max(len(order) * len(per_dir), 1)
     done = 0
     for name in order:
@@ -263,6 +265,9 @@ def run(
                 done += 1
                 continue
             mn, tol = res.minimum, res.tolerance
+            settings_used.setdefault(name, dict(res.settings))
+            versions_used.setdefault(name, dict(res.versions))
+            row.update(_bracket_runs(res))
             row.update(
                 status=res.status,
                 message=res.message(),
@@ -326,10 +331,29 @@ def run(
             "config": config.model_dump(mode="json"),
             "phi_convention": PHI_CONVENTION,
             "ranges": {f"{d['phi']:g}": [d["lo"], d["hi"]] for d in per_dir},
+            "settings": settings_used,
+            "versions": versions_used,
         },
         notes=notes,
         wall_time=time.perf_counter() - t_start,
     )
+
+
+def _bracket_runs(res: Any) -> dict[str, Any]:
+    """What the rock did in the two runs that bracket the minimum: regime, impacts, peak tilt."""
+    tr = next((t for t in res.transitions if not t.below_toppled), None)
+    out: dict[str, Any] = {}
+    if tr is None:
+        return out
+    for side, run in (("below", tr.lo_run), ("above", tr.hi_run)):
+        if run is None:
+            continue
+        out[f"regime_{side}"] = run.regime
+        out[f"impacts_{side}"] = int(run.impacts)
+        out[f"peak_ratio_{side}"] = float(run.peak_ratio)
+        if side == "above":
+            out["toppled_at_s"] = float("nan") if run.toppled_at is None else float(run.toppled_at)
+    return out
 
 
 def _ray(table: Any, phi: float) -> float:
@@ -361,6 +385,12 @@ def _columns(unit: str) -> list[str]:
         _c("search_lo", unit),
         _c("search_hi", unit),
         "n_simulations",
+        "regime_below",
+        "regime_above",
+        "impacts_below",
+        "impacts_above",
+        "peak_ratio_below",
+        "toppled_at_s",
         "wall_s",
         "settings",
         "versions",
@@ -392,6 +422,12 @@ def _fill(row: dict[str, Any], d: dict[str, Any], unit: str, wall: float) -> dic
         _c("search_lo", unit): d["lo"],
         _c("search_hi", unit): d["hi"],
         "n_simulations": int(row.get("n_simulations", 0)),
+        "regime_below": row.get("regime_below", ""),
+        "regime_above": row.get("regime_above", ""),
+        "impacts_below": row.get("impacts_below", -1),
+        "impacts_above": row.get("impacts_above", -1),
+        "peak_ratio_below": row.get("peak_ratio_below", nan),
+        "toppled_at_s": row.get("toppled_at_s", nan),
         "wall_s": wall,
         "settings": row.get("settings", "{}"),
         "versions": row.get("versions", "{}"),

@@ -19,10 +19,13 @@ How each case is judged (chosen for cost: two simulations per cell, not a thresh
 * *bracket* cases (slenderness, size, mass, dt = 1e-2, friction 10, 50 Hz, 1,000+ basal
   nodes, 10 km offset, ±0.01 % amplitude): the rock must stand at (1 − band)·a_ref and topple
   at (1 + band)·a_ref (band = 1 %, or 0.01 % for the amplitude case), i.e. the engine's
-  threshold is within the band of the reference; otherwise ``biased``. a_ref is the housner
+  threshold is within the band of the reference; otherwise ``biased``, and (``measure_biased``)
+  the cell's threshold is searched to say how far off it is. a_ref is the housner
   engine's threshold (a search, once per case) or — where similarity fixes it — the
-  analytical 5.638 m/s²: mass does not enter the rigid-body threshold, and a block scaled by
-  k with the pulse frequency scaled by k^-1/2 (ω/p fixed) has the same threshold in m/s².
+  analytical 5.638 m/s²: a block scaled by k with the pulse frequency scaled by k^-1/2 (ω/p
+  fixed) has the same threshold in m/s². The mass cases are such scaled blocks of granite
+  density (2400 kg/m³): 1 kg is a 5.2 × 5.2 × 15.5 cm block, 1e6 kg a 5.2 × 5.2 × 15.5 m one — a real rock,
+  not an impossible density, so the engines are tested and not the input check.
 * *slide* (μ = 0.05 < tan α): physics says the block slides and cannot rock: ``biased`` if it
   tilts by more than 0.1 α or topples, or if its COM does not move by at least 1 mm.
 * *rest* (600 s of noise below the uplift acceleration): nothing topples (``biased``) and
@@ -81,6 +84,7 @@ ALL_CASES = (
     "record_600s",
 )
 HOUSNER = 5.638  # m/s², conformance.HOUSNER_THRESHOLD
+GRANITE = 2400.0  # kg/m³, the Housner block's density: the mass cases keep it
 
 
 class ExtremesConfig(BaseModel):
@@ -96,6 +100,9 @@ class ExtremesConfig(BaseModel):
     reference_engine: str = "housner"
     settings: dict[str, dict[str, Any]] = Field(default_factory=dict, description="per-engine overrides")
     max_workers: int = Field(1, ge=1)
+    measure_biased: bool = Field(
+        True, description="search the threshold of every cell outside the band: how far it is"
+    )
 
 
 @dataclass
@@ -224,9 +231,18 @@ def build_cases(names: Sequence[str], tmp: Path) -> list[Case]:
                 )
             )
         elif name.startswith("mass_"):
+            # a real rock of that mass: granite density, the block scaled (k) to hold it, the pulse
+            # frequency scaled by k^-1/2 so ω/p and hence the threshold in m/s² stay 5.638
             m = {"mass_1kg": 1.0, "mass_1e6kg": 1e6}[name]
+            k = (m / GRANITE / (0.4 * 0.4 * 1.2)) ** (1.0 / 3.0)
+            sk = math.sqrt(k)
             scn = _block(
-                name=f"extreme_{name}", rock={"shape": "box", "half_extents": [0.2, 0.2, 0.6], "mass": m}
+                name=f"extreme_{name}",
+                duration=5.0 * sk,
+                settle_time=0.5 * sk,
+                output_dt=min(1e-2, 1e-3 * sk),
+                rock={"shape": "box", "half_extents": [0.2 * k, 0.2 * k, 0.6 * k], "mass": m},
+                excitation=_excitation(HOUSNER, 1.0 / sk),
             )
             out.append(
                 Case(
@@ -234,7 +250,8 @@ def build_cases(names: Sequence[str], tmp: Path) -> list[Case]:
                     "mass",
                     "bracket",
                     scn,
-                    f"mass {m:g} kg (threshold independent of mass)",
+                    f"mass {m:g} kg: a granite block ({GRANITE:g} kg/m³) {0.4 * k:.3g} × {0.4 * k:.3g} × "
+                    f"{1.2 * k:.3g} m, pulse {1 / sk:.3g} Hz (ω/p fixed: a_ref = 5.638 by similarity)",
                     a_ref=HOUSNER,
                 )
             )
@@ -476,7 +493,10 @@ def run(
         try:
             engs[e] = resolve_engine(e)
             labels[e] = engine_label(e)
-            result.provenance["engines"][labels[e]] = {"versions": engs[e].versions()}
+            result.provenance["engines"][labels[e]] = {
+                "versions": engs[e].versions(),
+                "settings": {"every case": {**engs[e].default_settings(), **cfg.settings.get(labels[e], {})}},
+            }
         except EngineNotAvailable as exc:
             result.notes.append(f"{e}: not available ({exc}); skipped")
 
@@ -486,6 +506,7 @@ def run(
         cases = build_cases(names, tmp)
         for c in cases:
             result.provenance["scenario_hashes"][c.name] = c.scenario.content_hash()
+            result.provenance.setdefault("case_descriptions", {})[c.name] = c.description
         # ---- references (threshold searches and reference peaks), in workers
         ref_tasks: list[CallTask | SimTask] = []
         for c in cases:
@@ -543,6 +564,7 @@ def run(
 
         # ---- cells
         tasks: list[SimTask] = []
+        cell_settings: dict[tuple[str, str], dict[str, Any]] = {}
         for c in cases:
             for e, eng in engs.items():
                 label = labels[e]
@@ -566,6 +588,7 @@ def run(
                 settings = dict(cfg.settings.get(label, {}))
                 default = eng.default_settings()
                 settings.update({k: v for k, v in c.settings.items() if k in default})
+                cell_settings[(c.name, label)] = settings
                 runs: list[dict[str, Any]] = []
                 for _, scn in _runs_for(c):
                     d, s = scenario_payload(scn)
@@ -589,7 +612,7 @@ def run(
                 row["max_penetration_m"] = max((x.get("max_penetration_m") or 0.0) for x in runs)
                 row["peak_tilt_rad"] = max((x.get("peak_tilt_rad") or 0.0) for x in runs)
                 row["sim_wall_s"] = sum((x.get("wall_time_s") or 0.0) for x in runs)
-                if runs[0].get("settings"):
+                if c.settings and runs[0].get("settings"):
                     result.provenance["engines"].setdefault(label, {}).setdefault("settings", {})[cname] = (
                         runs[0]["settings"]
                     )
@@ -598,6 +621,8 @@ def run(
             rows.append(row)
             done += 1
             say(f"{cname} × {label}: {cls}", done / n_cells)
+        if cfg.measure_biased:
+            _measure_biased(rows, by_name, engs, labels, cell_settings, cfg, say)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
@@ -621,7 +646,13 @@ def run(
     )
     for _, r in df.iterrows():
         if r["class"] not in ("ok", "not_applicable"):
-            result.summary.append(f"{r['engine']} · {r['case']}: **{r['class']}** — {r['detail']}")
+            thr = r.get("threshold_m_s2")
+            extra = (
+                f"; its threshold {thr:.5g} m/s² ({r['threshold_rel_error']:+.2%} from {r['reference_m_s2']:.5g})"
+                if isinstance(thr, float) and math.isfinite(thr)
+                else ""
+            )
+            result.summary.append(f"{r['engine']} · {r['case']}: **{r['class']}** — {r['detail']}{extra}")
     try:
         if not df.empty:
             result.figures.append(_figure(df, names, [labels[e] for e in engs]))
@@ -629,6 +660,71 @@ def run(
         result.notes.append(f"figure failed: {exc}")
     result.wall_time = time.perf_counter() - t_start
     return result
+
+
+def _measure_biased(
+    rows: list[dict[str, Any]],
+    by_name: dict[str, Case],
+    engs: dict[str, Any],
+    labels: dict[str, str],
+    cell_settings: dict[tuple[str, str], dict[str, Any]],
+    cfg: ExtremesConfig,
+    say: Callable[[str, float], None],
+) -> None:
+    """Search the threshold of every *bracket* cell outside the band (in workers): how far off it is.
+
+    The search runs on the side the two bracket runs point to: [0.25, 1 − band]·a_ref when the
+    rock toppled below the band, [1 + band, 4]·a_ref when it stood above it; rel. tol 1e-3.
+    Adds ``threshold_m_s2`` and ``threshold_rel_error`` to the row (NaN when no threshold lies in
+    the range searched, with the reason in ``detail``).
+    """
+    from pbr_xval.study.workers import CallTask, run_many, scenario_payload
+
+    label_to_engine = {v: k for k, v in labels.items()}
+    tasks = []
+    for idx, row in enumerate(rows):
+        c = by_name.get(row["case"])
+        if c is None or c.kind != "bracket" or row["class"] != "biased" or c.a_ref is None:
+            continue
+        low = "too low" in str(row["detail"])
+        lo, hi = (0.25, 1 - c.band) if low else (1 + c.band, 4.0)
+        data, src = scenario_payload(c.scenario)
+        e = label_to_engine.get(row["engine"], row["engine"])
+        tasks.append(
+            CallTask(
+                "pbr_xval.study.tradeoff:threshold_point",
+                {
+                    "scenario": data,
+                    "source": src,
+                    "engine": e,
+                    "settings": cell_settings.get((c.name, row["engine"]), {}),
+                    "param": "excitation.amplitude",
+                    "lo": lo * c.a_ref,
+                    "hi": hi * c.a_ref,
+                    "n_grid": 6,
+                    "rel_tol": 1e-3,
+                },
+                tag=idx,
+                timeout=cfg.timeout * c.timeout_factor * 4,
+            )
+        )
+    for i, r in enumerate(run_many(tasks, cfg.max_workers)):
+        row = rows[r.tag]
+        a_ref = by_name[row["case"]].a_ref or float("nan")
+        if r.ok and r.value.get("minimum") is not None and not r.value.get("toppled_at_lo"):
+            row["threshold_m_s2"] = float(r.value["minimum"])
+            row["threshold_rel_error"] = float(r.value["minimum"]) / a_ref - 1
+        else:
+            why = (
+                "toppled at the bottom of the range"
+                if r.ok and r.value.get("toppled_at_lo")
+                else "never toppled in the range"
+                if r.ok
+                else f"search {r.status}: {(r.message or '').splitlines()[0][:120] if r.message else ''}"
+            )
+            lo_hi = "[0.25, 0.99]" if "too low" in str(row["detail"]) else "[1.01, 4]"
+            row["detail"] = f"{row['detail']}; threshold search over {lo_hi}·a_ref: {why}"
+        say(f"threshold of {row['case']} × {row['engine']}", (i + 1) / max(len(tasks), 1))
 
 
 def _not_applicable(c: Case, eng: Any) -> str:

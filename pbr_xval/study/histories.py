@@ -364,9 +364,18 @@ def run(
         if q is None or traj is None:
             rows.append(row)
             continue
+        try:  # what the rock did: rocked, slid, jumped (the standard diagnostics)
+            from pbr_xval.diagnostics import ensure_standard_diagnostics
+
+            ensure_standard_diagnostics(traj, scene)
+            regime, slip = traj.regime, traj.diagnostics.get("slip_max_m")
+        except Exception:  # a diagnostic must not sink the study
+            regime, slip = "", None
         row.update(
             {
                 "profile": str(traj.settings.get("profile", "")),
+                "regime": regime,
+                "slip_max_m": float("nan") if slip is None else float(slip),
                 "toppled": traj.toppled,
                 "toppled_at_s": _nan(traj.toppled_at),
                 "peak_theta_rad": q["peak"],

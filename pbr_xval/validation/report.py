@@ -237,13 +237,17 @@ def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict
     )
     rules = "".join(f"<li>{html.escape(k)}: {html.escape(v)}</li>" for k, v in res.rules_all.items())
     fails = ", ".join(f"{k}: {v}" for k, v in res.failures.items())
+    from pbr_xval.report.studies import validation_block  # issue 24: the verdict on the first screen
+
+    verdict = validation_block(res.scores, res.outcomes, res.engines, meta)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>pbr-xval validate: {html.escape(str(meta.get("scenario", "")))}</title>
 <style>body{{font-family:sans-serif;max-width:1200px;margin:1em auto;padding:0 1em}}
 table{{border-collapse:collapse;font-size:13px}}td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}
 th{{background:#f4f4f4}}</style></head><body>
 <h1>Predictions scored against shake-table experiments</h1>
-<table>{meta_rows}</table>
+{verdict}
+<details><summary>Run details</summary><table>{meta_rows}</table></details>
 <h2>Scores</h2>
 <p>Physics: a fixed scenario, scored on every test (runs that failed are left out: {html.escape(fails)}).
 Empirical rules ("toppled if every feature ≥ its threshold", intensity measures from the
