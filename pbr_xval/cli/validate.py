@@ -50,6 +50,13 @@ def validate(
     baseline_source: Annotated[
         str, typer.Option(help="intensity measures of the rules: auto | sheet | record")
     ] = "auto",
+    transfer: Annotated[
+        str | None,
+        typer.Option(
+            help="also the transferred logistic baseline, fitted on another specimen's tests in IMs normalised "
+            "by each rock's geometry: CAMPAIGN:SPECIMEN:SCENARIO (e.g. ../shared/data/shake_table:2:sp2.toml)"
+        ),
+    ] = None,
     set_: SetOpt = None,
     ensemble: Annotated[
         bool,
@@ -70,6 +77,7 @@ def validate(
         campaign, specimen=specimen, scenario=scenario, engines=engine or [], out=out, tests=tests,
         limit=limit, folds=folds, highpass=highpass, lowpass=lowpass, detrend=detrend, resample=resample, tail=tail,
         workers=workers, chunk_size=chunk_size, baseline_source=baseline_source, sets=set_, console=console,
+        transfer=transfer,
         ensemble=ensemble, members=members,
     )  # fmt: skip
     if code:

@@ -30,6 +30,7 @@ def validate_command(
     sets: list[str] | None = None,
     console: Any = None,
     progress: bool = True,
+    transfer: str | None = None,
     ensemble: bool = False,
     members: int | None = None,
 ) -> int:
@@ -87,6 +88,10 @@ def validate_command(
             get_engine(e)
         except Exception as exc:  # unknown engine or missing package: its install hint
             return fail(f"--engine {e}: {exc}")
+    if transfer:
+        bad_transfer = _check_transfer(transfer)
+        if bad_transfer:
+            return fail(bad_transfer)
     out = out or Path("reports") / f"validate_{scn.name}"
     console.print(
         f"campaign {escape(str(campaign))}: {len(camp)} tests of specimen {specimen} "
@@ -103,6 +108,15 @@ def validate_command(
         return fail(str(exc))
     wall = time.perf_counter() - t0
     res = evaluate(camp, rows, motions, engines, folds=folds, baseline_source=baseline_source)
+    if transfer:  # issue 22: the transferred logistic baseline, fitted on another specimen
+        from pbr_xval.validation.report import add_transferred
+
+        try:
+            add_transferred(res, scenario, transfer, baseline=base)
+        except Exception as exc:  # the runs are done: report without it rather than lose them
+            err.print(
+                f"[yellow]warning:[/] --transfer {escape(transfer)}: {escape(str(exc))}", soft_wrap=True
+            )
     ens_meta: dict[str, Any] = {}
     if ens_spec is not None:  # issue 22: P(topple) per test from the [uncertainty] ensemble
         from pbr_xval.validation.ensemble import run_ensemble
@@ -174,3 +188,21 @@ def _ensemble_inputs(
     if not mix:
         return "--ensemble: no engine; give --engine, or engines = [...] in [uncertainty]", engines
     return spec, list(engines) or mix
+
+
+def _check_transfer(spec: str) -> str | None:
+    """What is wrong with ``--transfer CAMPAIGN:SPECIMEN:SCENARIO`` (None: nothing), before any run."""
+    from pbr_xval.scenario import ScenarioError, load_scenario
+    from pbr_xval.validation.campaign import CampaignError, load_campaign
+
+    parts = spec.split(":")
+    if len(parts) < 3 or not parts[-2].strip().isdigit():
+        return f"--transfer {spec!r}: expected CAMPAIGN:SPECIMEN:SCENARIO (e.g. ../shared/data/shake_table:2:sp2.toml)"
+    try:
+        camp = load_campaign(":".join(parts[:-2]), int(parts[-2]))
+        load_scenario(parts[-1])
+    except (CampaignError, ScenarioError, OSError) as exc:
+        return f"--transfer {spec}: {exc}"
+    if len({int(t.toppled) for t in camp.tests}) < 2:
+        return f"--transfer {spec}: the source specimen has one outcome only; a logistic law needs both"
+    return None

@@ -346,3 +346,32 @@ def test_documented_transferred_baseline_on_the_shared_campaign() -> None:
         brier = probabilistic_scores(frames[target]["observed"], tr.p)["brier"]
         # same tolerance and reason as the logistic baselines above
         assert brier == pytest.approx(DOCUMENTED_TRANSFERRED_BRIER[target], abs=1e-3), target
+
+
+def test_validate_transfer_option(box_campaign_files, tmp_path) -> None:
+    import json
+
+    from typer.testing import CliRunner
+
+    from pbr_xval.cli import app
+
+    csv, scn, _ = box_campaign_files
+    out = tmp_path / "report"
+    raw = ["--highpass", "0", "--lowpass", "0", "--detrend", "none", "--resample", "0"]
+    base = ["validate", str(csv), "--specimen", "1", "--scenario", str(scn), "--engine", "housner",
+            "--out", str(out), "--folds", "3", "--tail", "2", "--workers", "1", "--chunk-size", "3", *raw]  # fmt: skip
+    runner = CliRunner()
+    bad = runner.invoke(app, [*base, "--transfer", f"{csv}:one:{scn}"])
+    assert bad.exit_code == 2 and "CAMPAIGN:SPECIMEN:SCENARIO" in bad.output
+    assert not (out / "store").exists()  # refused before running
+    # the campaign as its own source: a block transferred to itself (the plumbing, not a claim)
+    res = runner.invoke(app, [*base, "--transfer", f"{csv}:1:{scn}"])
+    assert res.exit_code == 0, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.startswith("Brier transferred ")]
+    assert len(lines) == 1 and 0 <= float(lines[0].split()[2]) <= 1
+    sc = pd.read_csv(out / "scores.csv").set_index("model")
+    assert sc.loc["transferred", "kind"] == "transferred"
+    doc = json.loads((out / "validation.json").read_text())
+    assert doc["transferred"]["target_geometry"]["alpha_deg"] == pytest.approx(
+        math.degrees(math.atan(0.25)), abs=1e-4
+    )
