@@ -170,3 +170,43 @@ def test_bad_nrml_one_line_errors(tmp_path, text, match):
         read_fragility_model(p)
     msg = str(ei.value)
     assert "\n" not in msg and str(p) in msg
+
+
+def test_continuous_span_and_discretisation_note_suit_a_pbr(tmp_path):
+    # OpenQuake discretises [minIML, maxIML] into continuous_fragility_discretization (default 20) linear
+    # levels; θ·e^∓5β with 20 levels stepped 0.09 g around a 0.3 g median (β 0.35). Now θ·e^∓3β, rounded
+    # outwards, with the number of levels that keeps each step ≤ θβ/5 written in the description.
+    from scipy import stats
+
+    from pbr_xval.hazard.nrml import recommended_discretization
+
+    frs = [
+        LognormalFragility("PGA", "a", theta=0.3 * G, beta=0.35),
+        LognormalFragility("PGV", "v", theta=0.42, beta=0.25),
+    ]
+    p = write_fragility_model(tmp_path / "c.xml", frs, "continuous")
+    ns = {"n": "http://openquake.org/xmlns/nrml/0.5"}
+    root = ET.parse(p).getroot()
+    desc = root.find("n:fragilityModel/n:description", ns).text
+    n = recommended_discretization(frs)
+    assert f"continuous_fragility_discretization = {n}" in desc and n > 20
+    for ff, f in zip(root.iter("{http://openquake.org/xmlns/nrml/0.5}fragilityFunction"), frs, strict=True):
+        imls = ff.find("n:imls", ns)
+        lo, hi = float(imls.get("minIML")), float(imls.get("maxIML"))
+        unit = 100.0 if f.im == "PGV" else 1.0 / G  # cm/s per m/s, g per m/s²
+        th, b = f.theta * unit, f.beta
+        # outward rounding to 3 significant digits of θ·e^∓3β: P_f(min) ≤ 0.00135, P_f(max) ≥ 0.99865
+        assert th * math.exp(-3 * b) * 0.99 <= lo <= th * math.exp(-3 * b)
+        assert th * math.exp(3 * b) <= hi <= th * math.exp(3 * b) * 1.01
+        assert stats.norm.cdf(math.log(lo / th) / b) <= 0.00135
+        # OpenQuake's levels with the recommended discretisation: every step ≤ θβ/5
+        assert np.diff(np.linspace(lo, hi, n)).max() <= th * b / 5 * (1 + 1e-9)
+    # the 0.3 g rock: 20 levels over the old θ·e^∓5β stepped 0.088 g, the new span with n levels ≤ 0.021 g
+    a = frs[0]
+    assert (0.3 * math.exp(5 * 0.35) - 0.3 * math.exp(-5 * 0.35)) / 19 == pytest.approx(0.088, abs=5e-4)
+    assert np.diff(np.linspace(0.104, 0.858, n)).max() <= 0.3 * a.beta / 5 + 1e-12
+    # the file still reads back, and its moments are unchanged
+    back = read_fragility_model(p)
+    assert back["a"].theta == pytest.approx(a.theta, rel=1e-9) and back["a"].beta == pytest.approx(
+        a.beta, rel=1e-9
+    )
