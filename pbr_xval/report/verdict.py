@@ -11,7 +11,7 @@ A *case* is one comparison a reader cares about:
   an engine and the analytical map disagree about toppling.
 
 Every other study (azimuth, histories, extremes, speed–accuracy trade) gets a
-:class:`~pbr_xval.report.studies.StudyVerdict` (:mod:`pbr_xval.report.studies`): what was run,
+:class:`~pbr_xval.study.verdicts.StudyVerdict` (:mod:`pbr_xval.study.verdicts`): what was run,
 the answer across engines, each disagreement beyond tolerance in words, and a compact table.
 
 Marks: ``pass`` (within tolerance), ``attention`` (beyond it), ``reference``, ``failed``,
@@ -37,8 +37,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pbr_xval import units
-from pbr_xval.report.studies import StudyVerdict, study_verdict
 from pbr_xval.study.base import StudyResult
+from pbr_xval.study.verdicts import StudyVerdict, study_verdict
 
 __all__ = [
     "TOL_ANALYTICAL",

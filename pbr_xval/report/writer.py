@@ -24,7 +24,6 @@ from __future__ import annotations
 import base64
 import contextlib
 import datetime as _dt
-import html
 import io
 import json
 import math
@@ -44,6 +43,7 @@ from pbr_xval.atomic import (
 )
 from pbr_xval.jsonio import jsonable as _jsonable
 from pbr_xval.study.base import StudyResult
+from pbr_xval.study.verdicts import md_inline, settings_short
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -104,29 +104,6 @@ def _fmt(v: Any) -> str:
     if isinstance(v, dict | list | tuple):
         return json.dumps(_jsonable(v), default=str)
     return str(v)
-
-
-_MD_BOLD = re.compile(r"\*\*(.+?)\*\*")
-_MD_CODE = re.compile(r"`([^`]+)`")
-_MD_EM = re.compile(r"(?<![\w*])\*(?!\s)([^*]+?)\*(?![\w*])")
-
-
-def md_inline(text: str) -> Any:
-    """Escape, then render the inline Markdown the summaries use: **bold**, *em*, `code`."""
-    from markupsafe import Markup
-
-    s = html.escape(str(text), quote=False)
-    codes: list[str] = []
-
-    def keep(m: re.Match[str]) -> str:
-        codes.append(m.group(1))
-        return f"\x00{len(codes) - 1}\x00"
-
-    s = _MD_CODE.sub(keep, s)
-    s = _MD_BOLD.sub(r"<strong>\1</strong>", s)
-    s = _MD_EM.sub(r"<em>\1</em>", s)
-    s = re.sub(r"\x00(\d+)\x00", lambda m: f"<code>{codes[int(m.group(1))]}</code>", s)
-    return Markup(s)
 
 
 def _summary_blocks(summary: Iterable[str]) -> tuple[list[Any], list[Any]]:
@@ -356,42 +333,8 @@ def _engines_fallback(engines: dict[str, dict[str, Any]], prov: Mapping[str, Any
         engines[str(name)] = info
 
 
-#: settings shown first in an engine's one-line summary
-_KEY_SETTINGS = (
-    "profile",
-    "timestep",
-    "variant",
-    "solver",
-    "lcp_solver",
-    "iterations",
-    "num_solver_iterations",
-    "pgs_iterations",
-    "cone",
-    "collision",
-    "collision_detector",
-    "ground_motion",
-)
-
-
 def _settings_short(by_study: Mapping[str, Any]) -> str:
-    """One line of an engine's settings: key settings first; values that differ between studies listed."""
-    merged: dict[str, list[str]] = {}
-    for st in by_study.values():
-        if not isinstance(st, Mapping):
-            continue
-        for k, v in st.items():
-            if isinstance(v, Mapping) or v is None:
-                continue
-            txt = f"{v:g}" if isinstance(v, float) else _fmt(v)
-            if k == "timestep" and isinstance(v, float):
-                txt = f"{v:g} s"
-            vals = merged.setdefault(str(k), [])
-            if txt not in vals:
-                vals.append(txt)
-    if not merged:
-        return "settings not recorded"
-    keys = [k for k in _KEY_SETTINGS if k in merged] + sorted(k for k in merged if k not in _KEY_SETTINGS)
-    return ", ".join(f"{k} {' / '.join(merged[k])}" for k in keys)
+    return settings_short(by_study)
 
 
 def _unique(name: str, used: set[str]) -> str:

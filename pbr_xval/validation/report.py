@@ -237,7 +237,7 @@ def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict
     )
     rules = "".join(f"<li>{html.escape(k)}: {html.escape(v)}</li>" for k, v in res.rules_all.items())
     fails = ", ".join(f"{k}: {v}" for k, v in res.failures.items())
-    from pbr_xval.report.studies import validation_block  # issue 24: the verdict on the first screen
+    from pbr_xval.study.verdicts import validation_block  # issue 24: the verdict on the first screen
 
     verdict = validation_block(res.scores, res.outcomes, res.engines, meta)
     page = f"""<!DOCTYPE html>

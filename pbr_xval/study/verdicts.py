@@ -1,5 +1,9 @@
 """The verdict of every study that is not a threshold search or a fragility map.
 
+It sits in the study layer (beside the studies whose tables it reads) so the validate and
+constrain pages, which are written by study-layer modules, can show it too; the report writer
+(:mod:`pbr_xval.report.verdict`) collects it for ``pbr-xval report``.
+
 Each function reads a :class:`~pbr_xval.study.base.StudyResult`'s tables and returns a
 :class:`StudyVerdict`: what was run (with units), the answer to the study's question across
 engines, each place where engines disagree beyond tolerance (in words, with what the
@@ -29,6 +33,7 @@ import html
 import itertools
 import json
 import math
+import re
 import statistics
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -898,10 +903,75 @@ def _cell_html(c: VCell, tag: str = "td") -> str:
     return f"<{tag}{cls}{title}>{html.escape(c.text)}</{tag}>"
 
 
-def _md(text: str) -> str:
-    from pbr_xval.report.writer import md_inline
+_MD_BOLD = re.compile(r"\*\*(.+?)\*\*")
+_MD_CODE = re.compile(r"`([^`]+)`")
+_MD_EM = re.compile(r"(?<![\w*])\*(?!\s)([^*]+?)\*(?![\w*])")
 
+
+def md_inline(text: str) -> Any:
+    """Escape, then render the inline Markdown the summaries use: **bold**, *em*, `code`."""
+    from markupsafe import Markup
+
+    s = html.escape(str(text), quote=False)
+    codes: list[str] = []
+
+    def keep(m: re.Match[str]) -> str:
+        codes.append(m.group(1))
+        return f"\x00{len(codes) - 1}\x00"
+
+    s = _MD_CODE.sub(keep, s)
+    s = _MD_BOLD.sub(r"<strong>\1</strong>", s)
+    s = _MD_EM.sub(r"<em>\1</em>", s)
+    s = re.sub(r"\x00(\d+)\x00", lambda m: f"<code>{codes[int(m.group(1))]}</code>", s)
+    return Markup(s)
+
+
+def _md(text: str) -> str:
     return str(md_inline(text))
+
+
+#: settings shown first in an engine's one-line summary
+KEY_SETTINGS = (
+    "profile",
+    "timestep",
+    "variant",
+    "solver",
+    "lcp_solver",
+    "iterations",
+    "num_solver_iterations",
+    "pgs_iterations",
+    "cone",
+    "collision",
+    "collision_detector",
+    "ground_motion",
+)
+
+
+def _txt(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, list | tuple):
+        return json.dumps(v, default=str)
+    return str(v)
+
+
+def settings_short(by_study: Mapping[str, Any]) -> str:
+    """One line of an engine's settings: key settings first; values that differ between studies listed."""
+    merged: dict[str, list[str]] = {}
+    for st in by_study.values():
+        if not isinstance(st, Mapping):
+            continue
+        for k, v in st.items():
+            if isinstance(v, Mapping) or v is None:
+                continue
+            txt = f"{v:g} s" if k == "timestep" and isinstance(v, float) else _txt(v)
+            vals = merged.setdefault(str(k), [])
+            if txt not in vals:
+                vals.append(txt)
+    if not merged:
+        return "settings not recorded"
+    keys = [k for k in KEY_SETTINGS if k in merged] + sorted(k for k in merged if k not in KEY_SETTINGS)
+    return ", ".join(f"{k} {' / '.join(merged[k])}" for k in keys)
 
 
 def verdict_html(sv: StudyVerdict, engines_html: str = "") -> str:
@@ -966,9 +1036,7 @@ def engines_panel_html(
                 st = effective_settings(eng, scene, dict(overrides or {}))
             else:
                 st = {**eng.default_settings(), **dict(overrides or {})}
-            from pbr_xval.report.writer import _settings_short
-
-            txt = _settings_short({"run": st})
+            txt = settings_short({"run": st})
         except Exception as exc:
             vers, txt = "versions not recorded", f"settings not recorded ({exc})"
         items.append(
