@@ -328,7 +328,12 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
         ["P_s with the fragility's uncertainty [5–95 %]", "variance shares of exp(−νT)"] if unc is not None else [])  # fmt: skip
     li = "".join(f"<li>{html.escape(a)}</li>" for a in ASSUMPTIONS + (notes or []))
     src = "".join(f"<li><code>{html.escape(x)}</code></li>" for x in sources or [])
+    # issue 24: a one-paragraph verdict on the first screen (text from pbr_xval.study.verdicts)
+    from pbr_xval.study.verdicts import hazard_paragraph
+
+    verdict = hazard_paragraph(field_summary(s, c.im), c.im, fu, r, len(c.branch_names), len(rocks), c.joint_mode)
     body = f"""<h1>{html.escape(title)}: precarious rocks constrain the site hazard</h1>
+<p id="verdict" class="study-verdict" data-kind="hazard">{html.escape(verdict)}</p>
 <p>{len(c.branch_names)} hazard branches on {c.im}, {len(rocks)} rock(s), joint survival: <b>{c.joint_mode}</b>.
 Probability that all rocks survived under the prior hazard: <b>{s["prior_joint_survival"]:.3g}</b>.</p>
 {warn}
