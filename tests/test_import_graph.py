@@ -43,6 +43,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "pbr_xval.status",
             "pbr_xval.settings_spec",
             "pbr_xval.tomlio",
+            "pbr_xval.lifeline",
         ),
     ),
     # scan → rock model; ground motions

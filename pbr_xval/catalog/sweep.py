@@ -28,6 +28,7 @@ from typing import Any
 
 from pbr_xval.catalog import store
 from pbr_xval.catalog.tasks import ChunkSpec, build_chunks, execute_chunk, shard_chunks
+from pbr_xval.lifeline import PARENT_ENV, dask_preload_config, die_with_parent
 
 __all__ = ["SweepSummary", "run_chunks", "run_sweep"]
 
@@ -90,7 +91,8 @@ def _thread_env() -> Iterator[None]:
                 os.environ[k] = v
 
 
-def _init_worker() -> None:
+def _init_worker(parent_pid: int | None = None) -> None:
+    die_with_parent(parent_pid)  # no orphan when the driver is killed
     for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[k] = "1"
     # the store's writer: imported once per worker, not on the first chunk's clock
@@ -104,7 +106,9 @@ def _crash_reason(exc: BaseException) -> str:
 # ------------------------------------------------------------------ local
 def _run_isolated(spec_json: str, out: str) -> tuple[dict[str, Any] | None, str | None]:
     ctx = mp.get_context("spawn")
-    with cf.ProcessPoolExecutor(max_workers=1, mp_context=ctx, initializer=_init_worker) as pool:
+    with cf.ProcessPoolExecutor(
+        max_workers=1, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+    ) as pool:
         fut = pool.submit(execute_chunk, spec_json, out)
         try:
             return fut.result(), None
@@ -123,7 +127,9 @@ def _local(
     suspects: list[ChunkSpec] = []
 
     def new_pool() -> cf.ProcessPoolExecutor:
-        return cf.ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_worker)
+        return cf.ProcessPoolExecutor(
+            max_workers=workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
+        )
 
     pool = new_pool()
     running: dict[cf.Future[dict[str, Any]], ChunkSpec] = {}
@@ -201,16 +207,19 @@ def _dask(
     # kills takes no queued healthy chunk with it (with allowed-failures = 1 a healthy chunk
     # caught on two dying workers would be reported as failed). A scheduler given by address
     # keeps its own configuration.
-    conf = {
+    conf: dict[str, Any] = {
         "distributed.scheduler.allowed-failures": 1,
         "distributed.scheduler.worker-saturation": 1.0,
         "distributed.worker.daemon": False,
     }
+    if not scheduler:  # the workers we start die with this process (pbr_xval.lifeline)
+        conf.update(dask_preload_config())
     with dask.config.set(conf):
         if scheduler:
             client = Client(scheduler)
         else:
             env = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+            env[PARENT_ENV] = str(os.getpid())
             if os.environ.get("PYTHONPATH"):
                 env["PYTHONPATH"] = os.environ["PYTHONPATH"]
             cluster = LocalCluster(

@@ -18,6 +18,7 @@ the cells in a process pool (spawn context).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
@@ -187,8 +188,15 @@ def run(
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
+        from pbr_xval.lifeline import die_with_parent
+
         ctx = mp.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=config.max_workers, mp_context=ctx) as pool:
+        with ProcessPoolExecutor(
+            max_workers=config.max_workers,
+            mp_context=ctx,
+            initializer=die_with_parent,
+            initargs=(os.getpid(),),
+        ) as pool:
             futs = {
                 pool.submit(run_cell, data, base_dir, eng, config.settings.get(eng), config.clamp): i
                 for i, (_, eng, _, _, data) in enumerate(jobs)

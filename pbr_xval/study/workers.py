@@ -256,8 +256,16 @@ def simulate_batch(
 
 
 def _child_main(
-    conn: Any, target: str, kwargs: dict[str, Any], extra_sys_path: Sequence[str], stderr_path: str | None
+    conn: Any,
+    target: str,
+    kwargs: dict[str, Any],
+    extra_sys_path: Sequence[str],
+    stderr_path: str | None,
+    parent_pid: int | None = None,
 ) -> None:
+    from pbr_xval.lifeline import die_with_parent
+
+    die_with_parent(parent_pid)  # no orphan when the parent is killed
     os.environ["OMP_NUM_THREADS"] = "1"
     if stderr_path:
         with contextlib.suppress(OSError):
@@ -391,7 +399,7 @@ class _Job:
         os.close(fd)
         self.proc = ctx.Process(
             target=_child_main,
-            args=(child, call.target, call.kwargs, tuple(call.extra_sys_path), self.stderr_path),
+            args=(child, call.target, call.kwargs, tuple(call.extra_sys_path), self.stderr_path, os.getpid()),
             daemon=True,
         )
         self.t0 = time.perf_counter()
