@@ -203,12 +203,21 @@ class ReferenceEngine(EngineBase):
     def versions(self) -> dict[str, str]:
         from pbr_xval.version import __version__
 
-        return {"pbr_xval": __version__, "numpy": np.__version__}
+        out = {"pbr_xval": __version__, "numpy": np.__version__}
+        for pkg in ("numba", "llvmlite"):  # read from the metadata: importing numba takes ~0.5 s
+            try:
+                out[pkg] = version(pkg)
+            except PackageNotFoundError:
+                out[pkg] = "not installed"
+        return out
 
     # ------------------------------------------------------------------ simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
         from pbr_xval.stepping import Recorder, initial_pose
+
+        """pbr_xval, numpy, and numba with llvmlite: they compile the kernel (``compiled = True``)."""
+        from importlib.metadata import PackageNotFoundError, version
 
         s = self.resolve_settings(settings)
         if s["lcp_method"] not in ("dantzig", "lemke"):
