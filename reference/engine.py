@@ -201,6 +201,9 @@ class ReferenceEngine(EngineBase):
         }
 
     def versions(self) -> dict[str, str]:
+        """pbr_xval, numpy, and numba with llvmlite: they compile the kernel (``compiled = True``)."""
+        from importlib.metadata import PackageNotFoundError, version
+
         from pbr_xval.version import __version__
 
         out = {"pbr_xval": __version__, "numpy": np.__version__}
@@ -215,9 +218,6 @@ class ReferenceEngine(EngineBase):
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
         from pbr_xval.stepping import Recorder, initial_pose
-
-        """pbr_xval, numpy, and numba with llvmlite: they compile the kernel (``compiled = True``)."""
-        from importlib.metadata import PackageNotFoundError, version
 
         s = self.resolve_settings(settings)
         if s["lcp_method"] not in ("dantzig", "lemke"):
