@@ -52,12 +52,35 @@ def test_housner_threshold_in_at_most_15_simulations(engine: str, tol: float) ->
     res = find_threshold(load_scenario(HOUSNER), engine, rel_tol=1e-3)
     assert res.status == "bracketed", res.message()
     assert abs(res.minimum / PUBLISHED - 1) <= tol, res.minimum
-    assert res.n_simulations <= 15, res.n_simulations
+    assert res.n_simulations <= 15, res.n_simulations  # the goal (issue 15)
+    # README "simulations per threshold": 13 for each engine. Exact for the analytical engine (a
+    # sign error in the secant step costs 15 and still brackets the threshold); the 3-D engines
+    # get one simulation of margin, as their outcomes near the threshold may move across CPUs.
+    if engine == "housner":
+        assert res.n_simulations == 13, res.n_simulations
+    else:
+        assert res.n_simulations <= 14, res.n_simulations
     _check_transitions(res)
     # the physics bound: g·tan α = g/3 for this block, below which nothing was simulated
     assert res.lower_bound == pytest.approx(G / 3, rel=1e-9)
     assert all(not r.simulated for r in res.runs if r.value <= res.lower_bound)
     assert res.unit == "m/s²" and res.criterion["criterion"] == "physical"
+
+
+# The exact threshold of this block (the `housner` engine, conformance.PlanarBlock: 5.63805; the
+# paper: 5.638) and where the default search (rel_tol 1e-3) puts it: the midpoint of its last
+# bracket, 5.638760 on every machine tried (an analytical ODE, no contact solver). A mutated secant
+# step lands elsewhere in the bracket (5.63843) after 15 simulations.
+EXACT = 5.63805
+SEARCH_MIDPOINT = 5.6387598
+
+
+def test_housner_search_result_is_pinned() -> None:
+    res = find_threshold(load_scenario(HOUSNER), "housner", rel_tol=1e-3)
+    (tr,) = res.transitions
+    assert tr.lo <= EXACT <= tr.hi  # the bracket holds the exact value
+    assert res.minimum == pytest.approx(SEARCH_MIDPOINT, abs=1e-5)  # tighter than the 6e-5 a bug moves it
+    assert abs(res.minimum / EXACT - 1) < 1e-3  # within rel_tol of the exact value
 
 
 def _one_cosine(**kw):
