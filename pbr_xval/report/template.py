@@ -88,10 +88,10 @@ nav a { margin-right: 1em; }
 <ul class="headlines">
 {% for h in verdict_headlines %}<li>{{ h }}</li>
 {% endfor %}</ul>
-<p class="news">Disagreement beyond tolerance:</p>
-{% if verdict_findings %}<ul class="findings disagreements">
+{% if verdict_findings %}<p class="news">Disagreement beyond tolerance:</p>
+<ul class="findings disagreements">
 {% for f in verdict_findings %}<li>{{ f }}</li>
-{% endfor %}</ul>{% else %}<p class="small disagreements">No disagreement beyond tolerance.</p>{% endif %}
+{% endfor %}</ul>{% else %}<p class="small disagreements"><strong>Disagreement beyond tolerance:</strong> none.</p>{% endif %}
 <table class="verdict">
 <thead><tr><th class="eng">engine</th>{% for c in verdict.cases %}<th data-case="{{ c.key }}"><a href="#{{ c.anchor }}">{{ c.title }}</a><small>vs {{ c.reference_text }}; tolerance {{ c.tolerance_text }}</small></th>{% endfor %}</tr></thead>
 <tbody>
@@ -110,10 +110,10 @@ nav a { margin-right: 1em; }
 <ul class="headlines">
 {% for a in st.answer %}<li>{{ a }}</li>
 {% endfor %}</ul>
-<p class="news">Disagreement beyond tolerance:</p>
-{% if st.disagreements %}<ul class="findings disagreements">
+{% if st.disagreements %}<p class="news">Disagreement beyond tolerance:</p>
+<ul class="findings disagreements">
 {% for d in st.disagreements %}<li>{{ d }}</li>
-{% endfor %}</ul>{% else %}<p class="small disagreements">No disagreement between engines beyond tolerance.</p>{% endif %}
+{% endfor %}</ul>{% else %}<p class="small disagreements"><strong>Disagreement beyond tolerance:</strong> none between the engines.</p>{% endif %}
 {% if sv.rows %}<table class="sv">
 <thead><tr>{% for h in sv.header %}<th>{{ h }}</th>{% endfor %}</tr></thead>
 <tbody>

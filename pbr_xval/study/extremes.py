@@ -763,6 +763,8 @@ def _figure(df: Any, cases: list[str], engines: list[str]) -> Figure:
             ax.text(j, i, txt, ha="center", va="center", fontsize=8, color="white" if dark else "black")
     ax.set_xticks(range(len(engines)), engines)
     ax.set_yticks(range(len(cases)), cases)
+    ax.set_xlabel("engine")
+    ax.set_ylabel("extreme case (classes: no unit; thresholds in the table, m/s²)")
     ax.xaxis.tick_top()
     return Figure(
         "extremes_matrix",

@@ -601,7 +601,7 @@ def _theta_figure(df: Any, ref_used: str | None, name: str, gm: Any = None) -> F
                 axd.plot(sub["t"], sub["dtheta_over_alpha"], color=st["color"], lw=1.1, label=str(eng))
         for y in (-1.0, 1.0):
             ax.axhline(y, color="0.5", lw=0.8, ls=":")
-        ax.set_ylabel("θ / α")
+        ax.set_ylabel("θ / α [–]")
         ax.set_title(f"rocking angle θ/α — {name}")
         ax.legend(fontsize=8, ncol=2, loc="upper right")
         ax.tick_params(labelbottom=False)
@@ -657,7 +657,7 @@ def _toppling_figure(df: Any, runs: Any, ref_used: str | None, key: str, value: 
         ax.axhline(y0, color="0.5", lw=0.8, ls=":")
     ax.set_ylim(-1.7, 1.7)
     ax.set_xlabel("t [s]")
-    ax.set_ylabel("θ / α (clipped at ±1.6)")
+    ax.set_ylabel("θ / α [–] (clipped at ±1.6)")
     ax.set_title(f"a toppling history: {_units.label(key, with_unit=False)} = {value:.4g} {_units.unit(key)}")
     ax.legend(fontsize=8, loc="lower left")
     return Figure(

@@ -629,12 +629,23 @@ def _extremes(r: StudyResult) -> StudyVerdict:
 
 
 def _extreme_short(x: Any) -> str:
+    """The class and, in a few characters, how far: ``ok ±1.00 %``, ``biased +4.65 %``, ``ok slid 0.12 m``."""
     k = str(x["class"])
     if k == "not_applicable":
         return "n/a"
     err = _f(x.get("threshold_rel_error"))
     if err is not None:
         return f"{k} {_pct(err, 2)}"
+    d = str(x.get("detail") or "")
+    m = re.match(r"stands at −([\d.]+)%, topples at \+([\d.]+)%", d)
+    if m:
+        return f"{k}: within ±{m.group(1)} %"
+    m = re.match(r"slid ([\d.e+-]+) m", d)
+    if m:
+        return f"{k}: slid {m.group(1)} m"
+    m = re.search(r"\(([+-][\d.]+%)( vs reference)?\)", d)
+    if m:
+        return f"{k}: {m.group(1).replace('%', ' %')}"
     return k
 
 
