@@ -201,8 +201,8 @@ def conformance_cases(engines: Iterable[str] | None = None, *, fast_only: bool =
     For a plugin's own test suite (``@pytest.mark.parametrize(("engine", "check"),
     conformance_cases(["myengine"]))``) and ``tests/conformance/``: ids are selectable with
     ``-k`` (``-k "mujoco and threshold"``). No pytest mark is added: the project's ``slow``
-    mark means "not in CI", and CI runs every check; ``fast_only`` leaves the slow checks
-    out. Engines default to every registered one. Run a case with :func:`run_case`.
+    mark only labels tests over ~10 s (they run in CI like every other test, and CI runs every
+    check); ``fast_only`` leaves the slow checks out, for a quick local loop. Engines default to every registered one. Run a case with :func:`run_case`.
     """
     import pytest
 
