@@ -20,10 +20,12 @@ import numpy as np
 from scipy import optimize, stats
 
 __all__ = [
+    "EnsembleFragility",
     "FragilityFit",
     "SurfaceFit",
     "compare_medians",
     "fit_catalog",
+    "fit_ensemble_fragility",
     "fit_lognormal",
     "fit_surface",
     "profile_intervals",
@@ -316,3 +318,144 @@ def compare_medians(fits: Any, reference: str, im: str = "pga") -> Any:
                      "im": im, "theta": r["theta"], "theta_ref": th_ref, "reference": reference,
                      "rel_diff": r["theta"] / th_ref - 1.0 if th_ref == th_ref else math.nan})  # fmt: skip
     return pd.DataFrame(rows)
+
+
+# ------------------------------------------------------------------ ensembles (issue 22 item 6)
+@dataclass
+class EnsembleFragility:
+    """A lognormal fragility fitted to ensemble members' outcomes, with its uncertainty band.
+
+    ``theta`` (IM units) and ``beta`` are the binomial MLE over every member run (each test's
+    members are its binomial trials at that test's IM). The band is a two-stage bootstrap:
+    the groups (records, else tests) are resampled with replacement, then each drawn test's
+    members, and the fragility is refitted; ``theta_ci`` / ``beta_ci`` are percentile intervals
+    of the refits and ``draws`` the refitted (θ, β) pairs — the band reflects both the finite
+    set of tests and the finite ensemble. ``theta_profile_ci`` / ``beta_profile_ci`` are the
+    profile-likelihood intervals of the pooled member data (they treat member runs as
+    independent trials, so they are narrower than the bootstrap when members of a test agree).
+    """
+
+    im: str
+    theta: float
+    beta: float
+    status: str
+    message: str
+    n_tests: int
+    n_groups: int
+    n_runs: int
+    n_toppled: int
+    members_per_test: float
+    level: float
+    theta_ci: tuple[float, float] = (math.nan, math.nan)
+    beta_ci: tuple[float, float] = (math.nan, math.nan)
+    theta_profile_ci: tuple[float, float] = (math.nan, math.nan)
+    beta_profile_ci: tuple[float, float] = (math.nan, math.nan)
+    n_boot: int = 0
+    boot_failed: int = 0
+    draws: list[tuple[float, float]] = field(default_factory=list)
+
+    def probability(self, x: Any) -> Any:
+        return stats.norm.cdf(np.log(np.asarray(x, float) / self.theta) / self.beta)
+
+    def band(self, grid: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(P of the fit, lower, upper) on ``grid``: percentile band of the bootstrap refits' curves."""
+        g = np.asarray(grid, float)
+        p = self.probability(g) if self.status == "ok" else np.full(g.shape, np.nan)
+        if not self.draws:
+            return p, np.full(g.shape, np.nan), np.full(g.shape, np.nan)
+        th = np.array([d[0] for d in self.draws])[:, None]
+        be = np.array([d[1] for d in self.draws])[:, None]
+        curves = stats.norm.cdf(np.log(g[None, :] / th) / be)
+        a = (1 - self.level) / 2
+        return p, np.quantile(curves, a, axis=0), np.quantile(curves, 1 - a, axis=0)
+
+
+def _quiet_fit(x: np.ndarray, z: np.ndarray, im: str, ci_level: float | None = None) -> FragilityFit:
+    import warnings
+
+    with warnings.catch_warnings():  # resamples with few levels: the fit's status says what happened
+        warnings.simplefilter("ignore", RuntimeWarning)
+        warnings.simplefilter("ignore", np.exceptions.RankWarning)
+        return fit_lognormal(x, z, im_name=im, ci_level=ci_level)
+
+
+def _refit(x: np.ndarray, t: np.ndarray, mu0: float, lb0: float) -> tuple[float, float] | None:
+    """(θ, β) of a bootstrap resample by BFGS from the full data's MLE; None when degenerate
+    (all or none toppled, complete separation, no convergence, β outside (1e-4, 50))."""
+    if t.all() or not t.any() or x[~t].max() < x[t].min():
+        return None
+    levels, n, z = _group(x, t)
+    lx = np.log(levels)
+    r = optimize.minimize(_nll, np.array([mu0, lb0]), args=(lx, n, z), method="BFGS")
+    theta, beta = math.exp(r.x[0]), math.exp(r.x[1])
+    if not (np.isfinite(r.fun) and 1e-4 < beta < 50 and np.isfinite(theta)):
+        return None
+    return float(theta), float(beta)
+
+
+def fit_ensemble_fragility(
+    im: Any,
+    toppled: Any,
+    test: Any,
+    group: Any = None,
+    *,
+    im_name: str = "IM",
+    n_boot: int = 200,
+    level: float = 0.95,
+    seed: int = 0,
+) -> EnsembleFragility:
+    """Fit θ, β to member runs ``(im, toppled)`` of tests ``test`` (clustered by ``group``) with a band.
+
+    Parameters
+    ----------
+    im : (n,) IM of each member run (IM units; the same for every member of a test).
+    toppled : (n,) bool outcome of each member run.
+    test : (n,) test identifier of each run (its members are resampled together).
+    group : (n,) cluster of each run (e.g. the earthquake record; default: the test).
+    n_boot : bootstrap refits (0: none).
+    """
+    x = np.asarray(im, float)
+    t = np.asarray(toppled, bool)
+    tests = np.asarray([str(v) for v in test])
+    groups = tests if group is None else np.asarray([str(v) for v in group])
+    keep = np.isfinite(x) & (x > 0)
+    x, t, tests, groups = x[keep], t[keep], tests[keep], groups[keep]
+    fit = _quiet_fit(x, t, im_name, ci_level=level)
+    uniq_tests = list(dict.fromkeys(tests.tolist()))
+    out = EnsembleFragility(
+        im=im_name, theta=fit.theta, beta=fit.beta, status=fit.status, message=fit.message,
+        n_tests=len(uniq_tests), n_groups=len(set(groups.tolist())), n_runs=int(t.size),
+        n_toppled=int(t.sum()), members_per_test=(t.size / len(uniq_tests) if uniq_tests else 0.0),
+        level=float(level), theta_profile_ci=fit.theta_ci, beta_profile_ci=fit.beta_ci,
+    )  # fmt: skip
+    if fit.status != "ok" or n_boot <= 0:
+        return out
+    # index: group -> its tests -> the rows of each test
+    by_test: dict[str, np.ndarray] = {k: np.flatnonzero(tests == k) for k in uniq_tests}
+    group_tests: dict[str, list[str]] = {}
+    for k in uniq_tests:
+        group_tests.setdefault(str(groups[by_test[k][0]]), []).append(k)
+    glist = list(group_tests)
+    rng = np.random.default_rng(seed)
+    draws: list[tuple[float, float]] = []
+    failed = 0
+    for _ in range(int(n_boot)):
+        idx: list[np.ndarray] = []
+        for gi in rng.integers(0, len(glist), len(glist)):
+            for k in group_tests[glist[gi]]:
+                rows = by_test[k]
+                idx.append(rows[rng.integers(0, rows.size, rows.size)])
+        sel = np.concatenate(idx)
+        d = _refit(x[sel], t[sel], math.log(fit.theta), math.log(fit.beta))
+        if d is None:
+            failed += 1
+        else:
+            draws.append(d)
+    out.n_boot, out.boot_failed, out.draws = int(n_boot), failed, draws
+    if len(draws) >= 10:
+        a = (1 - level) / 2
+        th = np.array([d[0] for d in draws])
+        be = np.array([d[1] for d in draws])
+        out.theta_ci = (float(np.quantile(th, a)), float(np.quantile(th, 1 - a)))
+        out.beta_ci = (float(np.quantile(be, a)), float(np.quantile(be, 1 - a)))
+    return out

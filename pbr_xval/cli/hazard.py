@@ -24,9 +24,27 @@ def fragility(
     out: Annotated[Path, typer.Option(help="folder for fits.csv, fragility.csv and NRML files")] = Path(
         "reports/fragility"
     ),
+    ensemble: Annotated[
+        bool,
+        typer.Option(
+            "--ensemble",
+            help="RESULTS holds ensemble members (a `validate --ensemble` folder, its ensemble_members.csv or "
+            "store): θ, β on PGA and PGV with a two-stage bootstrap band (records, then members)",
+        ),
+    ] = False,
+    bootstrap: Annotated[int, typer.Option(help="--ensemble: bootstrap refits of the band")] = 200,
 ) -> None:
     """Lognormal fragility per rock on PGA, PGV, SA(T) (binomial MLE, profile-likelihood CIs), the
     vector fragility on (PGA, PGV/PGA), the IMs ranked by dispersion; NRML and CSV export."""
+    if ensemble:
+        from pbr_xval.cli.fragility_ensemble_impl import ensemble_fragility_command
+
+        code = ensemble_fragility_command(
+            results, engine=engine, ci=ci, n_boot=bootstrap, out=out, console=console
+        )
+        if code:
+            raise typer.Exit(code)
+        return
     from pbr_xval.cli.hazard_impl import fragility_command
 
     code = fragility_command(results, catalog, period or [], engine, ci, out, console)
