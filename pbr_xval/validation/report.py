@@ -463,11 +463,19 @@ def probability_plane_figure(res: ValidationResult) -> Any:
     models = _prob_models(res) or ["(none)"]
     ncol = min(3, len(models))
     nrow = -(-len(models) // ncol)
-    fig, axes = plt.subplots(nrow, ncol, figsize=(5.0 * ncol, 4.2 * nrow), squeeze=False)
+    fig, axes = plt.subplots(
+        nrow, ncol, figsize=(5.0 * ncol + 1.0, 4.2 * nrow), squeeze=False, layout="constrained"
+    )
     out = res.outcomes
     x = out["pga_m_s2"].to_numpy(float)
     y = out["pgv_over_pga_s"].to_numpy(float)
     obs = out["observed"].to_numpy(bool)
+    from matplotlib.lines import Line2D
+
+    handles = [
+        Line2D([], [], ls="", marker=mk, mfc="0.85", mec="k", label=f"observed {name}")
+        for mk, name in (("o", "toppled"), ("s", "stood"))
+    ]
     sc = None
     for ax, m in zip(axes.ravel(), models, strict=False):
         p = out[f"p_{m}"].to_numpy(float) if f"p_{m}" in out else np.full(x.size, math.nan)
@@ -492,7 +500,7 @@ def probability_plane_figure(res: ValidationResult) -> Any:
         ax.set_ylabel(label("pgv_over_pga"))
         ax.set_title(m, fontsize=9)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right")
+        ax.legend(handles=handles, fontsize=7, loc="upper right")
     for ax in axes.ravel()[len(models) :]:
         ax.set_visible(False)
     if sc is not None:

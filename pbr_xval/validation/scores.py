@@ -155,8 +155,8 @@ def reliability(
         raise RuntimeError("bin counts do not match scikit-learn's calibration_curve binning")
     return pd.DataFrame(
         {
-            "bin_lo": edges[keep],
-            "bin_hi": edges[keep + 1],
+            "bin_lo": np.round(edges[keep], 12),  # 0.3, not 0.30000000000000004
+            "bin_hi": np.round(edges[keep + 1], 12),
             "n": counts[keep].astype(int),
             "mean_predicted": prob_pred,
             "observed_frequency": prob_true,
