@@ -312,7 +312,10 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
         cs = [ck for ck in c.checks if ck.rock == rk.id]
         w_lo = max(cs, key=lambda ck: ck.pf_low)
         w_hi = max(cs, key=lambda ck: ck.top_share)
-        tr_rows.append([rk.id, f"{fv(w_lo.x_low)}: P_f = {w_lo.pf_low:.2g}", f"{w_lo.ps:.3g} / {w_lo.ps_extended:.3g}",
+        pf_txt = f"{fv(w_lo.x_low)}: P_f = {w_lo.pf_low:.2g}"
+        if unc is not None and rk.id in unc.pf_low_95 and unc.methods[rocks.index(rk)] != "none":
+            pf_txt += f" (≤ {unc.pf_low_95[rk.id]:.2g} in 95 % of the draws)"
+        tr_rows.append([rk.id, pf_txt, f"{w_lo.ps:.3g} / {w_lo.ps_extended:.3g}",
                         f"{fv(w_hi.x_high)} ({w_hi.tail}): 1 − P_f = {1 - w_hi.pf_high:.2g}, λ = {w_hi.rate_high:.2g}/yr",
                         f"{w_hi.top_share:.2g}"])  # fmt: skip
     figs = [(_fig_curves(c, given_mean), "Hazard curves: branches (grey), mean and 5–95 % band before (black, grey) and after (red)."),

@@ -130,6 +130,9 @@ class UncertaintyResult:
         default_factory=dict
     )  # rock → hazard/fragility/age/interaction
     ps_by_branch: np.ndarray | None = None  # (b, r, j)
+    #: rock → 95th percentile over draws of P_f at the highest of the branches' lowest levels (the
+    #: truncation check of the fitted fragility, repeated over the draws)
+    pf_low_95: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -137,7 +140,8 @@ class UncertaintyResult:
                 rid: {"method": self.methods[i], "n_draws": self.n_draws[i], "ps_fit": float(self.ps_fit[i]),
                       "ps": float(self.ps_mean[i]), "ps_se": float(self.ps_se[i]),
                       "ps_05": float(self.ps_band[i, 0]), "ps_95": float(self.ps_band[i, 1]),
-                      "variance_shares": self.shares.get(rid, {}), "note": self.notes[i]}
+                      "variance_shares": self.shares.get(rid, {}), "note": self.notes[i],
+                      "pf_lowest_level_95_over_draws": self.pf_low_95.get(rid, math.nan)}
                 for i, rid in enumerate(self.rock_ids)
             },
             "joint_survival": self.joint_mean, "joint_survival_05_95": list(self.joint_band),
@@ -240,12 +244,18 @@ def propagate(
         return (float(np.quantile(a, 0.05)), float(np.quantile(a, 0.95))) if a.size else (math.nan, math.nan)
 
     shares = {r.id: variance_shares(nus[i], w, _age_nodes(r.age)) for i, r in enumerate(rocks)}
+    x_low = max(float(br.levels[0]) for br in branches)
+    pf_low = {}
+    for r in rocks:
+        d = draws.get(r.id)
+        mem = d.members if d is not None else [r.fragility]
+        pf_low[r.id] = float(np.quantile([float(f.probability(x_low)) for f in mem], 0.95))
     return UncertaintyResult(
         [r.id for r in rocks], methods, notes, nd,
         np.array([float(c.summary["rock_survival"][r.id]) for r in rocks]), ps_mean, ps_se, ps_band,
         float((w * lik).sum()), band(list(joint_d)), post, c.im_at_rate(mean_after, c.rate_of_interest),
         band(im_draws), c.rate_at_im(mean_after, x0), band(rate_draws), shares,
-        np.stack([p[:, np.arange(jmax) % p.shape[1]] for p in ps_all], axis=1),
+        np.stack([p[:, np.arange(jmax) % p.shape[1]] for p in ps_all], axis=1), pf_low,
     )  # fmt: skip
 
 
