@@ -375,3 +375,30 @@ def test_validate_transfer_option(box_campaign_files, tmp_path) -> None:
     assert doc["transferred"]["target_geometry"]["alpha_deg"] == pytest.approx(
         math.degrees(math.atan(0.25)), abs=1e-4
     )
+
+
+def test_min_tilt_search_matches_a_brute_force_grid() -> None:
+    """α_min by branch and bound (bound α(φ) ≥ atan(b_s(φ)/h)) equals the minimum of an exhaustive grid."""
+    import trimesh
+
+    from pbr_xval.geometry.stability import critical_tilt, hull_vertices, support_lever
+    from pbr_xval.validation.scores import _min_tilt_direction
+
+    rng = np.random.default_rng(4)
+    pts = rng.normal(size=(60, 3)) * [0.3, 0.2, 0.5]
+    pts[:, 2] = np.maximum(pts[:, 2], -0.1)  # an irregular rock on a flat base
+    hull = trimesh.convex.convex_hull(pts)
+    hv, com = hull_vertices(hull.vertices), hull.center_mass
+
+    def tilt(phi: float) -> float:
+        a = critical_tilt(hv, com, np.array([math.cos(phi), math.sin(phi), 0.0]))
+        return a if np.isfinite(a) else math.inf
+
+    grid = np.radians(np.arange(0.0, 360.0, 5.0))
+    alpha = np.array([tilt(p) for p in grid])
+    bound = np.array(
+        [math.atan2(*support_lever(hv, com, np.array([math.cos(p), math.sin(p), 0.0]))) for p in grid]
+    )
+    assert np.all(alpha >= bound - 1e-12)  # the bound the search prunes with
+    best = tilt(_min_tilt_direction(hv, com, tilt, step_deg=5.0))
+    assert best <= alpha.min() + 1e-12 and best > alpha.min() - math.radians(1.0)
