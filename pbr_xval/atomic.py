@@ -28,6 +28,8 @@ from typing import IO, Any
 
 __all__ = [
     "atomic_file",
+    "check_output_dir",
+    "check_output_file",
     "clean_stale_temporaries",
     "file_mode",
     "write_bytes_atomic",
@@ -191,3 +193,91 @@ def write_parquet_atomic(path: str | os.PathLike[str], table: Any, *, hidden: bo
     with atomic_file(path, "wb", hidden=hidden) as fh:
         pq.write_table(table, fh)
     return Path(path)
+
+
+# ------------------------------------------------------------------ output locations, checked up front
+def _writable_ancestor(path: Path, label: str) -> None:
+    """The nearest existing ancestor of ``path`` must be a folder in which a file can be created."""
+    from pbr_xval.errors import OutputPathError
+
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise OutputPathError(f"{label}: {parent} is a file; expected a folder")
+            break
+    else:  # pragma: no cover - the root always exists
+        parent = Path(path.anchor or ".")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputPathError(
+            f"{label}: {parent} is not writable (permission denied); expected a writable location"
+        )
+    try:  # a real probe: read-only mounts, /sys, ACLs (os.access says yes to root)
+        fd, probe = tempfile.mkstemp(
+            prefix=f".write-probe.pid{os.getpid()}@{_host()}.", suffix=".tmp", dir=parent
+        )
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise OutputPathError(
+            f"{label}: cannot create files in {parent} ({why.lower()}); expected a writable location"
+        ) from None
+    os.close(fd)
+    Path(probe).unlink(missing_ok=True)
+
+
+def check_output_dir(path: str | os.PathLike[str], option: str) -> Path:
+    """Check, before any work, that the folder ``path`` can be written (existing or to be created).
+
+    Refused (:class:`~pbr_xval.errors.OutputPathError`, one line naming ``option``): an existing
+    file at ``path`` or at any of its ancestors, and a location where no file can be created
+    (read-only folder or file system). Nothing is created. Returns ``Path(path)``.
+    """
+    from pbr_xval.errors import OutputPathError
+
+    p = Path(path)
+    label = f"{option} {path}"
+    if p.exists() and not p.is_dir():
+        raise OutputPathError(f"{label}: is a file; expected a folder (a new one or an existing one)")
+    if p.is_dir():
+        _writable_ancestor(p / "x", label)
+    else:
+        _writable_ancestor(p, label)
+    return p
+
+
+def check_output_file(
+    path: str | os.PathLike[str],
+    option: str,
+    *,
+    overwrite: bool = True,
+    default_name: str | None = None,
+) -> Path:
+    """Check, before any work, that the file ``path`` can be written; return the file's path.
+
+    ``path`` naming a folder — an existing one, or any path written with a trailing slash
+    (``--out newdir/``) — means ``path/default_name`` when ``default_name`` is given, else it is
+    refused. Refused (:class:`~pbr_xval.errors.OutputPathError`, one line naming ``option``): a
+    folder where the file should be, an existing file unless ``overwrite`` (the message names
+    ``--overwrite``), an ancestor that is a file, and a location where no file can be created.
+    Nothing is created.
+    """
+    from pbr_xval.errors import OutputPathError
+
+    raw = os.fspath(path)
+    p = Path(raw)
+    label = f"{option} {raw}"
+    as_dir = raw.endswith(("/", os.sep)) or p.is_dir()
+    if as_dir:
+        if p.exists() and not p.is_dir():
+            raise OutputPathError(f"{label}: is a file; expected a folder (the path ends with a slash)")
+        if default_name is None:
+            raise OutputPathError(f"{label}: is a folder; expected a file path")
+        p = p / default_name
+        label = f"{option} {p}"
+        if p.is_dir():
+            raise OutputPathError(f"{label}: is a folder; expected a file path")
+    elif p.is_dir():  # pragma: no cover - covered by as_dir
+        raise OutputPathError(f"{label}: is a folder; expected a file path")
+    if p.exists() and not overwrite:
+        raise OutputPathError(f"{label}: file exists; pass --overwrite to replace it, or choose another path")
+    _writable_ancestor(p, label)
+    return p

@@ -8,7 +8,7 @@ expected.
 
 from __future__ import annotations
 
-__all__ = ["EngineNotAvailable", "EngineSettingsError", "NotApplicable", "ScenarioError"]
+__all__ = ["EngineNotAvailable", "EngineSettingsError", "NotApplicable", "OutputPathError", "ScenarioError"]
 
 
 class ScenarioError(ValueError):
@@ -25,3 +25,8 @@ class EngineSettingsError(ValueError):
 
 class NotApplicable(ValueError):
     """The engine cannot represent this scene (e.g. a 2-D model asked for 3-D shaking)."""
+
+
+class OutputPathError(ValueError):
+    """An output location cannot be written (a file where a folder is expected, or the reverse,
+    an existing file without ``--overwrite``, a read-only folder); the message names the option."""

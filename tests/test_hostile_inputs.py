@@ -635,3 +635,449 @@ def test_case_count() -> None:
     n = len(SCENARIO_CASES) + len(CATALOG_CASES) + len(USAGE_CASES) + len(API_IDS) + len(SUBPROCESS_CASES) + 2
     assert n >= 63, n
     assert math.isfinite(LIMIT)
+
+
+# ================================================================== issue 21: the 43 cases a hostile user found
+# Every command with an output checks it before any work (one shared helper, pbr_xval.atomic.check_output_*);
+# validate, sweep, fragility, threshold, rock and the record reader refuse the rest in one line, up front.
+
+
+def _read_only(tmp: Path) -> Path:
+    """A folder nothing can be written into: chmod 0555 (or, for root, who ignores modes, under /sys)."""
+    if os.geteuid() == 0:
+        return Path("/sys/pbr_xval_hostile")  # its nearest existing folder, /sys, refuses new files
+    ro = tmp / "ro"
+    ro.mkdir()
+    ro.chmod(0o555)
+    return ro
+
+
+def _snapshot(tmp: Path) -> dict[str, bytes | None]:
+    return {
+        str(p.relative_to(tmp)): (p.read_bytes() if p.is_file() else None) for p in sorted(tmp.rglob("*"))
+    }
+
+
+def _work(args: list[str]) -> tuple[int, str, float]:
+    """Run legitimate input (real work: more than the refusals' bound)."""
+    return _invoke(args, 120.0)
+
+
+def _invoke(args: list[str], limit: float = LIMIT) -> tuple[int, str, float]:
+    t0 = time.perf_counter()
+    with within(limit):
+        res = CliRunner().invoke(app, args)
+    crash = res.exception if res.exception and not isinstance(res.exception, SystemExit) else None
+    return res.exit_code, res.output + (f"\nraised {crash!r}" if crash else ""), time.perf_counter() - t0
+
+
+def _two_boxes_obj(path: Path) -> None:
+    """Two disjoint closed boxes: 0.4 × 0.4 × 1.2 m at the origin and a 0.2 m cube 2 m away (OBJ)."""
+
+    def box(lo: tuple[float, float, float], hi: tuple[float, float, float], k: int) -> list[str]:
+        v = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+        faces = [(1, 2, 4), (1, 4, 3), (5, 7, 8), (5, 8, 6), (1, 5, 6), (1, 6, 2),
+                 (3, 4, 8), (3, 8, 7), (1, 3, 7), (1, 7, 5), (2, 6, 8), (2, 8, 4)]  # fmt: skip
+        return [f"v {x} {y} {z}" for x, y, z in v] + [f"f {a + k} {b + k} {c + k}" for a, b, c in faces]
+
+    lines = box((-0.2, -0.2, 0.0), (0.2, 0.2, 1.2), 0) + box((2.0, 2.0, 0.0), (2.2, 2.2, 0.2), 8)
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _outputs_fixture(tmp: Path) -> dict[str, str]:
+    """Inputs for every command with an output: a scenario, a scan, a campaign, a catalog, an empty store."""
+    (tmp / "s.toml").write_text(BASE)
+    (tmp / "c.toml").write_text(CATALOG)
+    box_obj(tmp / "box.obj")
+    (tmp / "afile").write_text("mine")
+    (tmp / "old.toml").write_text("# the user's own scenario\n")
+    (tmp / "store").mkdir()
+    camp = tmp / "camp"
+    camp.mkdir()
+    (camp / "m1.txt").write_text("\n".join(f"{0.5 * math.sin(0.05 * i):.6f}" for i in range(400)) + "\n")
+    (camp / "campaign.csv").write_text("test,motion_file,units,dt,toppled\n1,m1.txt,m/s2,0.005,0\n")
+    return {
+        "tmp": str(tmp),
+        "ro": str(_read_only(tmp)),
+        "scn": str(tmp / "s.toml"),
+        "cat": str(tmp / "c.toml"),
+        "obj": str(tmp / "box.obj"),
+        "camp": str(camp / "campaign.csv"),
+    }
+
+
+# (id, command line with {placeholders}, text the one error line must contain)
+OUTPUT_CASES: list[tuple[str, list[str], str]] = [
+    ("run-out-read-only", ["run", "{scn}", "-e", "housner", "--out", "{ro}/t.parquet"], "--out"),
+    ("run-out-file-with-slash", ["run", "{scn}", "-e", "housner", "--out", "{tmp}/afile/"], "is a file"),
+    ("run-out-under-a-file", ["run", "{scn}", "-e", "housner", "--out", "{tmp}/afile/sub/"], "is a file"),
+    ("threshold-json-read-only", ["threshold", "{scn}", "-e", "housner", "--json", "{ro}/r.json"], "--json"),
+    ("threshold-json-under-a-file", ["threshold", "{scn}", "-e", "housner", "--json", "{tmp}/afile/r.json"], "is a file"),
+    ("rock-out-is-a-file", ["rock", "{obj}", "--out", "{tmp}/afile"], "--out"),
+    ("rock-out-read-only", ["rock", "{obj}", "--out", "{ro}/rock"], "--out"),
+    ("rock-scenario-exists", ["rock", "{obj}", "--out", "{tmp}/r", "--scenario", "{tmp}/old.toml"], "--overwrite"),
+    ("rock-scenario-read-only", ["rock", "{obj}", "--out", "{tmp}/r", "--scenario", "{ro}/s.toml"], "--scenario"),
+    ("rock-scenario-is-a-folder", ["rock", "{obj}", "--out", "{tmp}/r", "--scenario", "{tmp}/store"], "folder"),
+    ("validate-out-is-a-file", ["validate", "{camp}", "--scenario", "{scn}", "-e", "housner", "--out", "{tmp}/afile"], "--out"),
+    ("validate-out-read-only", ["validate", "{camp}", "--scenario", "{scn}", "-e", "housner", "--out", "{ro}/v"], "--out"),
+    ("sweep-out-read-only", ["sweep", "{cat}", "{ro}/store"], "results store"),
+    ("fragility-out-is-a-file", ["fragility", "{tmp}/store", "--out", "{tmp}/afile"], "--out"),
+    ("fragility-out-read-only", ["fragility", "{tmp}/store", "--out", "{ro}/f"], "--out"),
+    ("constrain-example-out-is-a-file", ["constrain", "--example", "--out", "{tmp}/afile"], "--out"),
+    ("constrain-example-out-read-only", ["constrain", "--example", "--out", "{ro}/c"], "--out"),
+    ("constrain-out-is-a-file", ["constrain", "{tmp}/old.toml", "--out", "{tmp}/afile"], "--out"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("args", "needle"), [c[1:] for c in OUTPUT_CASES], ids=[c[0] for c in OUTPUT_CASES])
+def test_output_locations_checked_first(tmp_path: Path, args: list[str], needle: str) -> None:
+    """A read-only location, a file where a folder goes (or the reverse), an existing file: one line, nothing written."""
+    subs = _outputs_fixture(tmp_path)
+    args = [a.format(**subs) for a in args]
+    before = _snapshot(tmp_path)
+    code, out, elapsed = _invoke(args)
+    _check(code, out, needle, elapsed)
+    assert _snapshot(tmp_path) == before  # nothing simulated, nothing written, the user's files untouched
+
+
+def test_run_out_trailing_slash_is_a_folder(tmp_path: Path) -> None:
+    """`run --out newdir/` (not existing) writes newdir/<name>.<engine>.parquet, not a file named newdir."""
+    (tmp_path / "s.toml").write_text(BASE)
+    code, out, _ = _work(["run", str(tmp_path / "s.toml"), "-e", "housner", "--out", f"{tmp_path}/newdir/"])
+    assert code == 0, out
+    assert (tmp_path / "newdir" / "block.housner.parquet").is_file()
+
+
+def test_threshold_json_into_a_folder(tmp_path: Path) -> None:
+    """`threshold --json DIR` writes DIR/<name>.<engine>.threshold.json (it used to fail after the search)."""
+    import json
+
+    (tmp_path / "s.toml").write_text(BASE)
+    (tmp_path / "res").mkdir()
+    code, out, _ = _work(
+        [
+            "threshold",
+            str(tmp_path / "s.toml"),
+            "-e",
+            "housner",
+            "--rel-tol",
+            "0.01",
+            "--json",
+            str(tmp_path / "res"),
+        ]
+    )
+    assert code == 0, out
+    data = json.loads((tmp_path / "res" / "block.housner.threshold.json").read_text())
+    assert data["param"] == "excitation.amplitude"
+
+
+def test_rock_scenario_overwrite(tmp_path: Path) -> None:
+    """`rock --scenario EXISTING.toml` replaces the file only with --overwrite (as `run --out` does)."""
+    box_obj(tmp_path / "box.obj")
+    old = tmp_path / "old.toml"
+    old.write_text("# mine\n")
+    args = ["rock", str(tmp_path / "box.obj"), "--out", str(tmp_path / "r"), "--scenario", str(old)]
+    code, out, _ = _work([*args, "--overwrite"])
+    assert code == 0, out
+    assert "[rock]" in old.read_text() and "pbr-xval rock" in old.read_text()
+
+
+# ------------------------------------------------------------------ rock: options, cut, multi-body, tiny clouds
+ROCK_CASES: list[tuple[str, list[str], str]] = [
+    ("grid-spacing-tiny", ["--grid-spacing", "1e-5"], "spacing"),
+    ("grid-spacing-zero", ["--grid-spacing", "0"], "--grid-spacing"),
+    ("grid-spacing-negative", ["--grid-spacing", "-0.01"], "--grid-spacing"),
+    ("alpha-multiple-negative", ["--alpha-multiple", "-1"], "--alpha-multiple"),
+    ("cut-z-nan", ["--cut-z", "nan"], "--cut-z"),
+    ("cut-z-above-the-rock", ["--cut-z", "5"], "cut plane"),
+    ("ten-point-cloud", ["{tmp}/ten.xyz"], "at least 100"),
+]
+
+
+@pytest.mark.parametrize(("args", "needle"), [c[1:] for c in ROCK_CASES], ids=[c[0] for c in ROCK_CASES])
+def test_rock_cli(tmp_path: Path, args: list[str], needle: str) -> None:
+    box_obj(tmp_path / "box.obj")
+    rng = __import__("numpy").random.default_rng(1)
+    (tmp_path / "ten.xyz").write_text("\n".join(" ".join(f"{c:.4f}" for c in p) for p in rng.random((10, 3))))
+    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    scan = args.pop(0) if args and not args[0].startswith("-") else str(tmp_path / "box.obj")
+    code, out, elapsed = _invoke(["rock", scan, "--out", str(tmp_path / "r"), *args])
+    _check(code, out, needle, elapsed)
+    assert not (tmp_path / "r").exists()
+
+
+def test_rock_cut_without_networkx(tmp_path: Path) -> None:
+    """`rock --cut-z` splits one scan into rock and pedestal without networkx (not a dependency)."""
+    import json
+
+    box_obj(tmp_path / "box.obj")  # 0.4 × 0.4 × 1.2 m
+    code, out, _ = _work(["rock", str(tmp_path / "box.obj"), "--cut-z", "0.3", "--out", str(tmp_path / "r")])
+    assert code == 0, out
+    d = json.loads((tmp_path / "r" / "rock.json").read_text())
+    assert d["volume_m3"] == pytest.approx(0.4 * 0.4 * 0.9, rel=1e-9)  # the part above the cut
+    assert d["com_height_m"] == pytest.approx(0.45, rel=1e-9)
+
+
+def test_rock_two_bodies_models_the_largest_with_a_warning(tmp_path: Path) -> None:
+    """A scan of two disjoint bodies: a warning names them, and the largest is modelled (here and in scenarios)."""
+    import json
+
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.scene import compile_scene
+
+    _two_boxes_obj(tmp_path / "two.obj")
+    code, out, _ = _work(
+        [
+            "rock",
+            str(tmp_path / "two.obj"),
+            "--out",
+            str(tmp_path / "r"),
+            "--scenario",
+            str(tmp_path / "two.toml"),
+        ]
+    )
+    assert code == 0, out
+    warn = [ln for ln in out.splitlines() if ln.startswith("warning:")]
+    assert len(warn) == 1 and "2 disjoint bodies" in warn[0] and "0.192" in warn[0], out
+    d = json.loads((tmp_path / "r" / "rock.json").read_text())
+    assert d["volume_m3"] == pytest.approx(0.192, rel=1e-9)  # the 0.4 × 0.4 × 1.2 box, not 0.192 + 0.008
+    scene = compile_scene(load_scenario(tmp_path / "two.toml"))
+    assert scene.info()["mass_kg"] == pytest.approx(0.192 * 2700.0, rel=1e-6)
+
+
+# ------------------------------------------------------------------ validate
+def _campaign(tmp: Path, *, rate_hz: float = 200.0, pga: str | None = None) -> Path:
+    """Three one-column records (m/s²) and a campaign CSV; or, with ``pga``, the shared format with that pga_g."""
+    import numpy as np
+
+    t = np.arange(0.0, 2.0, 1.0 / rate_hz)
+    motions = {f"m{i}": (0.5 + 0.5 * i) * np.sin(2 * np.pi * 2.0 * t) for i in (1, 2, 3)}
+    d = tmp / "camp"
+    d.mkdir(exist_ok=True)
+    if pga is None:
+        rows = ["test,motion_file,units,dt,toppled,motion"]
+        for i, (name, acc) in enumerate(motions.items(), 1):
+            (d / f"{name}.txt").write_text("\n".join(f"{x:.6e}" for x in acc) + "\n")
+            rows.append(f"{i},{name}.txt,m/s2,{1.0 / rate_hz!r},0,{name}")
+        (d / "campaign.csv").write_text("\n".join(rows) + "\n")
+        return d / "campaign.csv"
+    rows = ["test,motion,pga_g,pgv_over_pga_s,toppled_specimen1"]
+    arrays = {}
+    for i, acc in enumerate(motions.values(), 1):
+        rows.append(f"{i},REC{i},{pga if i == 2 else '0.1'},0.05,0")
+        arrays[f"test{i:03d}_acc_g"] = (acc / 9.80665).astype(np.float32)
+        arrays[f"test{i:03d}_dt_s"] = np.float64(1.0 / rate_hz)
+    (d / "experiments.csv").write_text("\n".join(rows) + "\n")
+    np.savez(d / "table_motions.npz", **arrays)
+    return d
+
+
+VALIDATE_SCENARIO = """\
+name = "box_validation"
+duration = 3.0
+settle_time = 0.0
+
+[rock]
+shape = "box"
+half_extents = [0.1, 0.1, 0.4]
+density = 2500.0
+
+[contact]
+friction_static = 1.0
+
+[excitation]
+type = "none"
+"""
+
+# (id, campaign kind: csv | shared800 | shared-neg, extra args, scenario text or None, needle)
+VALIDATE_CASES: list[tuple[str, str, list[str], str | None, str]] = [
+    ("tests-empty", "csv", ["--tests", ""], None, "--tests"),
+    ("tests-only-commas", "csv", ["--tests", " , ,"], None, "--tests"),
+    ("folds-zero", "csv", ["--folds", "0"], None, "--folds"),
+    ("folds-negative", "csv", ["--folds", "-3"], None, "--folds"),
+    ("folds-one", "csv", ["--folds", "1"], None, "--folds"),
+    ("chunk-size-zero", "csv", ["--chunk-size", "0"], None, "--chunk-size"),
+    ("chunk-size-negative", "csv", ["--chunk-size", "-2"], None, "--chunk-size"),
+    ("workers-negative", "csv", ["--workers", "-3"], None, "--workers"),
+    ("workers-zero", "csv", ["--workers", "0"], None, "--workers"),
+    ("limit-zero", "csv", ["--limit", "0"], None, "--limit"),
+    ("highpass-above-nyquist", "csv", ["--highpass", "150", "--lowpass", "0"], None, "Nyquist"),
+    ("highpass-above-lowpass", "csv", ["--highpass", "500"], None, "--highpass"),
+    ("highpass-nan", "csv", ["--highpass", "nan"], None, "--highpass"),
+    ("lowpass-above-nyquist", "csv", ["--lowpass", "1000"], None, "--lowpass"),
+    ("highpass-above-resampled-nyquist", "shared800", ["--highpass", "150", "--lowpass", "0"], None, "--resample"),
+    ("pga-negative", "shared-neg", [], None, "pga_g"),
+    ("sheet-without-pga", "csv", ["--baseline-source", "sheet"], None, "pga_g"),
+    ("set-unknown-key", "csv", ["--set", "rtoll=1"], None, "rtoll"),
+    ("set-bad-value", "csv", ["--set", "rtol=-1"], None, "rtol"),
+    (
+        "scenario-mesh-garbage",
+        "csv",
+        [],
+        VALIDATE_SCENARIO.replace('shape = "box"\nhalf_extents = [0.1, 0.1, 0.4]', 'shape = "mesh"\npath = "garbage.obj"'),
+        "garbage.obj",
+    ),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("kind", "args", "text", "needle"), [c[1:] for c in VALIDATE_CASES], ids=[c[0] for c in VALIDATE_CASES]
+)
+def test_validate_cli(tmp_path: Path, kind: str, args: list[str], text: str | None, needle: str) -> None:
+    camp = _campaign(
+        tmp_path, rate_hz=800.0 if kind.startswith("shared") else 200.0, pga="-0.1" if kind == "shared-neg" else None
+    ) if kind != "shared800" else _campaign(tmp_path, rate_hz=800.0, pga="0.1")  # fmt: skip
+    (tmp_path / "s.toml").write_text(text or VALIDATE_SCENARIO)
+    (tmp_path / "garbage.obj").write_text("not a mesh\n")
+    out = tmp_path / "report"
+    cmd = [
+        "validate",
+        str(camp),
+        "--scenario",
+        str(tmp_path / "s.toml"),
+        "-e",
+        "housner",
+        "--out",
+        str(out),
+        *args,
+    ]
+    code, output, elapsed = _invoke(cmd)
+    _check(code, output, needle, elapsed)
+    assert not out.exists()  # nothing simulated, no report with F1 = nan
+
+
+def test_validate_says_which_ims_the_rules_use(tmp_path: Path) -> None:
+    """A campaign without pga_g: stdout says the rules use the records' IMs (it was noted only in validation.json)."""
+    camp = _campaign(tmp_path)
+    (tmp_path / "s.toml").write_text(VALIDATE_SCENARIO)
+    code, out, _ = _work(
+        ["validate", str(camp), "--scenario", str(tmp_path / "s.toml"), "-e", "housner", "--out",
+         str(tmp_path / "rep"), "--limit", "1", "--workers", "1"]
+    )  # fmt: skip
+    assert code == 0, out
+    assert "threshold rules: the corrected records' PGA and PGV/PGA" in out
+
+
+# ------------------------------------------------------------------ sweep and fragility
+NAN_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 nan\nv 0 0 1\nf 1 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"
+MESH_CATALOG = CATALOG.replace(
+    'shape = "box"\nhalf_extents = [0.2, 0.2, 0.6]', 'shape = "mesh"\npath = "MESH"'
+)
+
+
+@pytest.mark.parametrize(
+    ("mesh", "text"), [("garbage.obj", "not a mesh\n"), ("nan.obj", NAN_OBJ)], ids=["garbage", "nan"]
+)
+def test_sweep_refuses_a_bad_catalog_mesh(tmp_path: Path, mesh: str, text: str) -> None:
+    """A garbage or NaN mesh in the catalog: one line naming the rock and the file, not "1 done, 0 failed"."""
+    (tmp_path / mesh).write_text(text)
+    (tmp_path / "c.toml").write_text(MESH_CATALOG.replace("MESH", mesh))
+    code, out, elapsed = _invoke(
+        ["sweep", str(tmp_path / "c.toml"), str(tmp_path / "store"), "--executor", "inline"]
+    )
+    _check(code, out, mesh, elapsed)
+    assert "rock" in _error_lines(out)[0] and not (tmp_path / "store").exists()
+
+
+@pytest.fixture(scope="module")
+def finished_store(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    tmp = tmp_path_factory.mktemp("store")
+    (tmp / "c.toml").write_text(CATALOG)
+    with within(120):
+        res = CliRunner().invoke(
+            app, ["sweep", str(tmp / "c.toml"), str(tmp / "store"), "--executor", "inline"]
+        )
+    assert res.exit_code == 0, res.output
+    return tmp / "store"
+
+
+def _chunk(store: Path) -> Path:
+    (f,) = [p for p in store.rglob("*.parquet") if not p.name.startswith(".")]
+    return f
+
+
+def test_fragility_store_with_only_failed_rows(tmp_path: Path, finished_store: Path) -> None:
+    import shutil
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    store = tmp_path / "store"
+    shutil.copytree(finished_store, store)
+    f = _chunk(store)
+    t = pq.read_table(f)
+    i = t.schema.get_field_index("status")
+    t = t.set_column(i, "status", pa.array(["error"] * len(t), type=t.schema.field("status").type))
+    pq.write_table(t, f)
+    code, out, elapsed = _invoke(["fragility", str(store), "--out", str(tmp_path / "fr")])
+    _check(code, out, "none of its 2 simulation rows succeeded", elapsed)
+    assert not (tmp_path / "fr").exists()
+
+
+def test_fragility_truncated_chunk(tmp_path: Path, finished_store: Path) -> None:
+    import shutil
+
+    store = tmp_path / "store"
+    shutil.copytree(finished_store, store)
+    f = _chunk(store)
+    f.write_bytes(f.read_bytes()[: f.stat().st_size // 2])
+    code, out, elapsed = _invoke(["fragility", str(store), "--out", str(tmp_path / "fr")])
+    _check(code, out, f.name, elapsed)
+    assert "not a readable Parquet chunk" in out and not (tmp_path / "fr").exists()
+
+
+# ------------------------------------------------------------------ threshold, records, constrain
+RECORD_EXCITATION = '[excitation]\ntype = "record"\npath = "rec.txt"\ndt = 0.01\nunits = "g"\n\n'
+
+
+def test_threshold_param_unset(tmp_path: Path) -> None:
+    """`--param excitation.target_pga` when the scenario leaves it unset: one line, not a TypeError."""
+    text = edit(BASE, BASE[BASE.index("[excitation]") : BASE.index("[toppling]")], RECORD_EXCITATION)
+    (tmp_path / "s.toml").write_text(text)
+    (tmp_path / "rec.txt").write_text("\n".join(f"{0.1 * math.sin(i / 5):.5f}" for i in range(200)) + "\n")
+    code, out, elapsed = _invoke(
+        ["threshold", str(tmp_path / "s.toml"), "-e", "housner", "--param", "excitation.target_pga"]
+    )
+    _check(code, out, "excitation.target_pga", elapsed)
+    assert "unset" in out
+
+
+def test_non_uniform_time_column_line_and_plain_floats(tmp_path: Path) -> None:
+    """The line of the first irregular step (not the first data row), and plain numbers (no np.float64(...))."""
+    exc = '[excitation]\ntype = "record"\npath = "nu.txt"\nunits = "g"\ntime_column = "time_s"\ncolumn = "acc_g"\n\n'
+    (tmp_path / "s.toml").write_text(
+        edit(BASE, BASE[BASE.index("[excitation]") : BASE.index("[toppling]")], exc)
+    )
+    rows = [(0.0, 0.1), (0.01, 0.2), (0.02, 0.1), (0.05, 0.0), (0.06, 0.1), (0.07, 0.2), (0.08, 0.1)]
+    (tmp_path / "nu.txt").write_text("time_s acc_g\n" + "\n".join(f"{t} {a}" for t, a in rows) + "\n")
+    code, out, elapsed = _invoke(
+        ["run", str(tmp_path / "s.toml"), "-e", "housner", "--out", str(tmp_path / "t.parquet")]
+    )
+    _check(code, out, "line 5", elapsed)  # header on line 1: t = 0.05 is on line 5
+    line = _error_lines(out)[0]
+    assert "t=0.05 s after t=0.02 s" in line and "np.float64" not in line and "dt=0.01 s" in line
+    assert not (tmp_path / "t.parquet").exists()
+
+
+def test_constrain_weights_not_summing_to_one(tmp_path: Path) -> None:
+    """Branch weights 5.0 and 0.5 are refused (they used to be rescaled silently) unless normalize_weights = true."""
+    from pbr_xval.hazard.example import write_example
+
+    cfg = write_example(tmp_path / "ex")
+    text = cfg.read_text()
+    head, rocks = text[: text.index("[[hazard.branch]]")], text[text.index("[[rock]]") :]
+    branches = "".join(
+        f'[[hazard.branch]]\nfile = "hazard/hazard_curve-rlz-00{i}-PGA_0.csv"\nweight = {w}\nname = "b{i}"\n\n'
+        for i, w in ((0, 5.0), (1, 0.5))
+    )
+    bad = cfg.with_name("weights.toml")
+    bad.write_text(head + branches + rocks)
+    code, out, elapsed = _invoke(["constrain", str(bad), "--out", str(tmp_path / "rep")])
+    _check(code, out, "weights", elapsed)
+    assert "normalize_weights" in out and "5.5" in out and not (tmp_path / "rep").exists()
+
+
+def test_issue_21_case_count() -> None:
+    """Issue 21 found 43 bad cases among 171; each has at least one test here."""
+    n = len(OUTPUT_CASES) + len(ROCK_CASES) + len(VALIDATE_CASES) + 2 + 2 + 3 + 3 + 3
+    assert n >= 43, n

@@ -298,10 +298,17 @@ def _validate_rock(raw: dict[str, Any], base: Path, seen: set[str]) -> dict[str,
                 )
             rock_d["path"] = str(p)
         try:
-            TypeAdapter(sc.Rock).validate_python(rock_d)
+            model = TypeAdapter(sc.Rock).validate_python(rock_d)
         except ValidationError as exc:
             key, msg, found = _first_error(exc)
             raise _KeyError(key, msg, found) from None
+        if isinstance(model, sc.MeshRock):  # read now: a garbage or NaN mesh is one line, not failed rows
+            from pbr_xval.geometry.interface import load_rock_mesh
+
+            try:
+                load_rock_mesh(rock_d["path"], units=model.units, pose=model.pose, hint='use pose = "settle"')
+            except (ValueError, OSError) as exc:
+                raise _KeyError("path", f"unusable mesh ({exc})", None, "a closed rock mesh") from None
         out.update({k: v for k, v in rock_d.items() if k not in ("shape", "density")})
         if shape == "mesh":
             out["sha256"] = file_sha256(Path(out["path"]))

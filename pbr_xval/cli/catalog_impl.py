@@ -50,10 +50,11 @@ def sweep_command(
     pool, ``workers`` processes), ``dask`` (LocalCluster of ``workers``, or ``scheduler``
     address) or ``inline``. Rerunning resumes: finished chunks are skipped.
     """
-    from pbr_xval.atomic import clean_stale_temporaries
+    from pbr_xval.atomic import check_output_dir, clean_stale_temporaries
     from pbr_xval.catalog import CatalogError, format_summary, load_catalog, run_sweep
     from pbr_xval.catalog.tasks import parse_shard
     from pbr_xval.engine import registered_names
+    from pbr_xval.errors import OutputPathError
 
     con = _console(console)
     try:
@@ -75,10 +76,10 @@ def sweep_command(
         problems.append(f"--workers {workers}: expected at least 1 worker process")
     if chunk_size < 0:
         problems.append(f"--chunk-size {chunk_size}: expected motions per chunk ≥ 1 (0: the catalog's)")
-    if out.exists() and not out.is_dir():
-        problems.append(
-            f"results store {out}: is a file; expected a folder (a new one, or an earlier store to resume)"
-        )
+    try:
+        check_output_dir(out, "results store")
+    except OutputPathError as exc:
+        problems.append(str(exc))
     if problems:
         for p in problems:
             _error(con, p)

@@ -23,8 +23,26 @@ def _console(console: Any) -> Any:
 def _error(con: Any, msg: str) -> int:
     from rich.markup import escape
 
-    con.print("[red]error:[/red] " + escape(msg), highlight=False)
+    con.print("[red]error:[/red] " + escape(msg), highlight=False, soft_wrap=True)
     return 2
+
+
+def _unreadable_chunk(results: Path) -> str | None:
+    """The first chunk file of a results store that is not readable Parquet, as a message (None: all read)."""
+    import pyarrow.parquet as pq
+
+    from pbr_xval.catalog.store import chunk_files
+
+    for f in chunk_files(results):
+        try:
+            pq.read_metadata(f)
+        except Exception as exc:  # truncated, empty, or not Parquet at all
+            why = str(exc).split(". ")[0].split(": ")[-1]
+            return (
+                f"{f}: not a readable Parquet chunk ({why}); expected a complete chunk file (delete it and "
+                "rerun the sweep to recompute it)"
+            )
+    return None
 
 
 def fragility_command(
@@ -40,8 +58,9 @@ def fragility_command(
     ``im_comparison.csv``, ``fragility.csv`` and NRML (continuous and discrete) into ``out``."""
     from rich.markup import escape
 
-    from pbr_xval.atomic import write_text_atomic
+    from pbr_xval.atomic import check_output_dir, write_text_atomic
     from pbr_xval.catalog import CatalogError, load_catalog, load_results
+    from pbr_xval.errors import OutputPathError
     from pbr_xval.hazard.fit import compare_ims, fit_sweep, sweep_intensity_measures
     from pbr_xval.hazard.fragility import LognormalFragility
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
@@ -55,6 +74,13 @@ def fragility_command(
         return _error(con, "--period needs --catalog (SA(T) is recomputed from the sweep's catalog)")
     if not Path(results).is_dir():
         return _error(con, f"{results}: results folder not found; expected a pbr-xval sweep output")
+    try:
+        check_output_dir(out, "--out")
+    except OutputPathError as exc:
+        return _error(con, str(exc))
+    bad = _unreadable_chunk(results)
+    if bad:
+        return _error(con, bad)
     df = load_results(results)
     if df is None or len(df) == 0:
         return _error(con, f"{results}: no simulation rows; expected a finished (or partial) sweep")
@@ -62,6 +88,17 @@ def fragility_command(
         df = df[df["engine"] == engine]
         if len(df) == 0:
             return _error(con, f"{results}: no runs of engine {engine!r}")
+    ok_rows = df["status"].astype(str) == "ok"
+    if not ok_rows.any():
+        counts = df["status"].astype(str).value_counts()
+        msgs = [m.strip().splitlines()[0] for m in df["message"].astype(str) if m.strip()]
+        first = f"; first message: {msgs[0][:200]}" if msgs else ""
+        return _error(
+            con,
+            f"{results}: none of its {len(df)} simulation rows succeeded (status "
+            + ", ".join(f"{k} × {v}" for k, v in counts.items())
+            + f"{first}); expected successful runs to fit",
+        )
     extra = None
     ims = ["PGA", "PGV"]
     if periods:
@@ -117,12 +154,18 @@ def constrain_command(
     """Run a constrain file (or the synthetic example) and write the report into ``out``."""
     from rich.markup import escape
 
+    from pbr_xval.atomic import check_output_dir
+    from pbr_xval.errors import OutputPathError
     from pbr_xval.hazard.config import load_config
     from pbr_xval.hazard.ims import G, HazardInputError
     from pbr_xval.hazard.report import write_report
     from pbr_xval.hazard.survival import constrain
 
     con = _console(console)
+    try:  # before the example's inputs or any computation are written
+        check_output_dir(out, "--out")
+    except OutputPathError as exc:
+        return _error(con, str(exc))
     if example:
         from pbr_xval.hazard.example import write_example
 

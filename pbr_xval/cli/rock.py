@@ -34,15 +34,23 @@ def rock(
     ] = "settle",
     scenario: Annotated[
         Path | None,
-        typer.Option(help="also write a ready scenario TOML for this rock (check/run/threshold accept it)"),
+        typer.Option(
+            help="also write a ready scenario TOML for this rock (check/run/threshold accept it); an existing "
+            "file is replaced only with --overwrite"
+        ),
     ] = None,
     cut_z: Annotated[
         float | None, typer.Option(help="split one scan at z = cut (m): rock above, pedestal below")
     ] = None,
     alpha_multiple: Annotated[
-        float | None, typer.Option(help="point cloud: alpha as a multiple of the spacing")
+        float | None, typer.Option(help="point cloud: alpha as a multiple of the spacing (> 0)")
     ] = None,
-    grid_spacing: Annotated[float | None, typer.Option(help="node grid spacing, m")] = None,
+    grid_spacing: Annotated[
+        float | None, typer.Option(help="node grid spacing, m (> 0; default 1/40 of the rock's size)")
+    ] = None,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="replace an existing --scenario file (default: refuse)")
+    ] = False,
 ) -> None:
     """Rock model of a scan: mass, COM, inertia, contact patch, critical tilt per direction; writes a small report."""
     from pbr_xval.cli.rock_impl import rock_command
@@ -60,6 +68,7 @@ def rock(
         alpha_multiple=alpha_multiple,
         grid_spacing=grid_spacing,
         console=console,
+        overwrite=overwrite,
     )
     if code:
         raise typer.Exit(code)

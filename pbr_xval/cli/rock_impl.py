@@ -57,6 +57,11 @@ def _picture(model: Any, path: Path) -> None:
     plt.close(fig)
 
 
+def _scan_repairs(model: Any) -> list[str]:
+    """What the scan's loading repaired (and the bodies it dropped)."""
+    return [str(r) for r in model.info.get("scan", {}).get("repairs", [])]
+
+
 def rock_command(
     scan: Path,
     pedestal: Path | None,
@@ -74,29 +79,58 @@ def rock_command(
     n_directions: int = 72,
     gravity: float = 9.81,
     console: Any = None,
+    overwrite: bool = False,
 ) -> int:
     """Build the rock model of ``scan``, print it with rich, write ``out`` (default
     ``reports/rock_<name>/``: rock.json, rock.png, polar.png). Returns 0, or 2 on a geometry error.
 
     ``mass`` (kg), when given, overrides ``density``. ``pose`` is ``scan``, ``settle`` or
     ``stable`` (:data:`pbr_xval.geometry.interface.POSES`). ``scenario``: also write a ready,
-    validated scenario TOML for the rock there (:func:`write_rock_scenario`).
+    validated scenario TOML for the rock there (:func:`write_rock_scenario`); an existing file
+    there is replaced only with ``overwrite``. Every option and output location is checked before
+    the scan is read.
     """
+    import math
+
     from rich.console import Console
     from rich.markup import escape
     from rich.table import Table
 
+    from pbr_xval.atomic import check_output_dir, check_output_file
+    from pbr_xval.errors import OutputPathError
     from pbr_xval.geometry.interface import plot_stability_polar
     from pbr_xval.geometry.mesh import MeshError
     from pbr_xval.geometry.rockmodel import build_rock_model
 
     con = console or Console()
+
+    def fail(msg: str) -> int:
+        con.print(f"[red]error:[/red] {escape(msg)}", soft_wrap=True, highlight=False)
+        return 2
+
     if scenario is not None and (pedestal is not None or cut_z is not None):
-        con.print(
-            "[red]error:[/red] --scenario writes a rock on a flat pedestal; a scanned pedestal "
+        return fail(
+            "--scenario writes a rock on a flat pedestal; a scanned pedestal "
             "(--pedestal or --cut-z) cannot be carried into a scenario yet — drop --scenario or the pedestal"
         )
-        return 2
+    for opt, v in (("--grid-spacing", grid_spacing), ("--alpha-multiple", alpha_multiple)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            return fail(f"{opt} {v!r}: expected a positive number")
+    if cut_z is not None and not math.isfinite(cut_z):
+        return fail(f"--cut-z {cut_z!r}: expected a finite height in the scan's units")
+    for opt, v in (("--density", None if mass is not None else density), ("--mass", mass)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            return fail(f"{opt} {v!r}: expected a positive number")
+    # every output is checked before the model is built
+    out_dir = Path(out) if out is not None else Path("reports") / f"rock_{Path(scan).stem}"
+    try:
+        check_output_dir(out_dir, "--out")
+        if scenario is not None:
+            scenario = check_output_file(scenario, "--scenario", overwrite=overwrite)
+            if scenario.suffix.lower() != ".toml":
+                return fail(f"--scenario {scenario}: expected a .toml file name")
+    except OutputPathError as exc:
+        return fail(str(exc))
     try:
         model = build_rock_model(
             Path(scan),
@@ -113,8 +147,12 @@ def rock_command(
             gravity=gravity,
         )
     except (MeshError, ValueError, FileNotFoundError) as exc:
-        con.print(f"[red]error:[/red] {escape(str(exc))}")
-        return 2
+        return fail(str(exc))
+    for r in _scan_repairs(model):
+        if "disjoint bodies" in r:
+            con.print(
+                f"[yellow]warning:[/yellow] {escape(str(scan))}: {escape(r)}", soft_wrap=True, highlight=False
+            )
     d = model.to_dict()
     ct = d["critical_tilt"]
     f3 = lambda a: "(" + ", ".join(f"{x:.4f}" for x in a) + ")"  # noqa: E731
@@ -171,7 +209,6 @@ def rock_command(
     for r in d["info"]["scan"].get("repairs", []):
         t.add_row("repair", r)
     con.print(t)
-    out_dir = Path(out) if out is not None else Path("reports") / f"rock_{model.name}"
     _atomic_write_text(out_dir / "rock.json", json.dumps(d, indent=2, default=float))
     _picture(model, out_dir / "rock.png")
     plot_stability_polar(model.stability, out_dir / "polar.png", g=gravity, title=model.name)
@@ -182,8 +219,7 @@ def rock_command(
                 model, Path(scan), Path(scenario), units=units, pose=pose, density=density, mass=mass
             )
         except ValueError as exc:
-            con.print(f"[red]error:[/red] {escape(str(exc))}")
-            return 2
+            return fail(str(exc))
         con.print(
             f"wrote scenario {scenario} (check it with: pbr-xval check {scenario}; "
             f"find its toppling amplitude with: pbr-xval threshold {scenario} --engine mujoco)"

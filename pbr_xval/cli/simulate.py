@@ -78,10 +78,10 @@ def run(
     scenario: Path,
     engine: Annotated[str, typer.Option("--engine", "-e", help="engine name (see `pbr-xval engines`)")],
     out: Annotated[
-        Path | None,
+        str | None,
         typer.Option(
-            help="trajectory Parquet file, or an existing folder to write <name>.<engine>.parquet into "
-            "(default runs/<name>.<engine>.parquet)"
+            help="trajectory Parquet file, or a folder (an existing one, or any path ending in /) to write "
+            "<name>.<engine>.parquet into (default runs/<name>.<engine>.parquet)"
         ),
     ] = None,
     set_: ScenarioSetOpt = None,
@@ -129,18 +129,18 @@ def run(
             raise _fail(f"--set {key}: {exc}{hint}") from None
     if profile:
         settings["profile"] = profile
-    out = out or Path("runs") / f"{scn.name}.{engine}.parquet"
-    if out.is_dir():
-        out = out / f"{scn.name}.{engine}.parquet"
-    if out.is_dir():
-        raise _fail(f"--out {out}: is a folder; expected a Parquet file path")
-    if out.exists() and not overwrite:
-        raise _fail(f"--out {out}: file exists; pass --overwrite to replace it, or choose another --out")
-    for parent in out.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise _fail(f"--out {out}: {parent} is a file; expected a folder")
-            break
+    from pbr_xval.atomic import check_output_file
+    from pbr_xval.errors import OutputPathError
+
+    try:
+        out_path = check_output_file(
+            out or Path("runs") / f"{scn.name}.{engine}.parquet",
+            "--out",
+            overwrite=overwrite,
+            default_name=f"{scn.name}.{engine}.parquet",
+        )
+    except OutputPathError as exc:
+        raise _fail(str(exc)) from None
     try:
         scene = compile_scene(scn)
         full = effective_settings(eng, scene, settings)
@@ -153,14 +153,14 @@ def run(
             traj = run_scene(scene, eng, full)
     except (EngineNotAvailable, EngineSettingsError, NotApplicable) as exc:
         raise _fail(str(exc)) from None
-    traj.save_parquet(out)
+    traj.save_parquet(out_path)
     table = Table(title=f"{scn.name} — {engine}")
     table.add_column("quantity")
     table.add_column("value")
     for k, v in traj.summary().items():
         table.add_row(k, f"{v:.6g}" if isinstance(v, float) else str(v))
     console.print(table)
-    console.print(f"trajectory written to {out}")
+    console.print(f"trajectory written to {out_path}")
     if not traj.ok:
         raise _fail(f"run failed: {traj.message}", 1)
 
@@ -187,7 +187,14 @@ def threshold(
     ] = 1e-3,
     set_: SetOpt = None,
     profile: ProfileOpt = None,
-    json_out: Annotated[Path | None, typer.Option("--json", help="also write the result as JSON")] = None,
+    json_out: Annotated[
+        str | None,
+        typer.Option(
+            "--json",
+            help="also write the result as JSON to this file, or into this folder (an existing one, or a "
+            "path ending in /) as <name>.<engine>.threshold.json",
+        ),
+    ] = None,
 ) -> None:
     """Toppling bands of a scenario parameter: physics lower bound, coarse scan refined near toppling, every
     transition narrowed and confirmed by direct runs.
@@ -197,10 +204,20 @@ def threshold(
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from pbr_xval.atomic import check_output_file, write_text_atomic
     from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable
+    from pbr_xval.errors import OutputPathError
     from pbr_xval.study.threshold import find_threshold
 
     scn = _load(scenario)
+    json_path = None
+    if json_out is not None:  # checked before the search, not after it
+        try:
+            json_path = check_output_file(
+                json_out, "--json", default_name=f"{scn.name}.{engine}.threshold.json"
+            )
+        except OutputPathError as exc:
+            raise _fail(str(exc)) from None
     settings = _parse_sets(set_)
     if profile:
         settings["profile"] = profile
@@ -278,7 +295,8 @@ def threshold(
     )
     if res.status == "topples_at_lo":
         err.print(f"warning: {escape(res.message())}", soft_wrap=True)
-    if json_out:
-        json_out.write_text(json.dumps(res.to_dict(), indent=2, default=str))
+    if json_path is not None:
+        write_text_atomic(json_path, json.dumps(res.to_dict(), indent=2, default=str))
+        console.print(f"  result written to {escape(str(json_path))}", soft_wrap=True)
     if res.status != "bracketed":
         raise typer.Exit(EXIT_TOPPLES_AT_LO if res.status == "topples_at_lo" else EXIT_NEVER_TOPPLED)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from pathlib import Path
 from typing import Any
@@ -38,8 +39,10 @@ def validate_command(
     from rich.console import Console
     from rich.markup import escape
 
+    from pbr_xval.atomic import check_output_dir
     from pbr_xval.cli._app import _parse_sets
     from pbr_xval.engine import get_engine
+    from pbr_xval.errors import OutputPathError
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
     from pbr_xval.validation.report import brier_lines, evaluate, f1_lines, write_report
@@ -49,7 +52,7 @@ def validate_command(
     err = Console(stderr=True)
 
     def fail(msg: str) -> int:
-        err.print(f"[red]error:[/] {escape(msg)}")
+        err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True, highlight=False)
         return 2
 
     if scenario is None:
@@ -60,6 +63,26 @@ def validate_command(
         return fail(f"--baseline-source {baseline_source!r}: expected auto, sheet or record")
     if not (tail >= 0):
         return fail(f"--tail {tail!r}: expected a time >= 0 s")
+    for opt, value, least in (
+        ("--folds", folds, 2),
+        ("--workers", workers, 1),
+        ("--chunk-size", chunk_size, 1),
+    ):
+        if value < least:
+            return fail(f"{opt} {value}: expected an integer ≥ {least}")
+    if limit is not None and limit < 1:
+        return fail(f"--limit {limit}: expected at least 1 test")
+    if tests is not None and not [t for t in tests.split(",") if t.strip()]:
+        return fail(
+            f"--tests {tests!r}: names no test; expected comma-separated test identifiers (omit it for all)"
+        )
+    for opt, hz in (("--highpass", highpass), ("--lowpass", lowpass), ("--resample", resample)):
+        if not (math.isfinite(hz) and hz >= 0):
+            return fail(f"{opt} {hz!r}: expected a frequency ≥ 0 Hz (0: none)")
+    if highpass and lowpass and highpass >= lowpass:
+        return fail(
+            f"--highpass {highpass:g} Hz: not below --lowpass {lowpass:g} Hz; expected a band (0: no filter)"
+        )
     try:
         base = Baseline(
             detrend=detrend,
@@ -72,6 +95,16 @@ def validate_command(
         camp = camp.select(selection, limit)
     except CampaignError as exc:
         return fail(str(exc))
+    bad = _check_campaign(camp, base, highpass, lowpass)
+    if bad:
+        return fail(bad)
+    has_sheet = all({"pga_g", "pgv_over_pga_s"} <= set(t.sheet) for t in camp.tests)
+    if baseline_source == "sheet" and not has_sheet:
+        n = sum(not {"pga_g", "pgv_over_pga_s"} <= set(t.sheet) for t in camp.tests)
+        return fail(
+            f"--baseline-source sheet: {n} test(s) of {campaign} lack pga_g or pgv_over_pga_s; expected both "
+            "for every test (or --baseline-source record)"
+        )
     try:
         scn = load_scenario(scenario)
     except ScenarioError as exc:
@@ -93,11 +126,30 @@ def validate_command(
         if bad_transfer:
             return fail(bad_transfer)
     out = out or Path("reports") / f"validate_{scn.name}"
+    try:
+        check_output_dir(out, "--out")
+    except OutputPathError as exc:
+        return fail(str(exc))
+    bad = _check_scene(camp, base, scn, scenario, engines, settings, tail)
+    if bad:
+        return fail(bad)
     console.print(
         f"campaign {escape(str(campaign))}: {len(camp)} tests of specimen {specimen} "
         f"({sum(t.toppled for t in camp.tests)} toppled), {len({t.motion for t in camp.tests})} records",
         soft_wrap=True,
     )
+    if baseline_source == "auto":
+        console.print(
+            "threshold rules: "
+            + (
+                "the lab sheet's PGA and PGV/PGA (pga_g, pgv_over_pga_s of every test)"
+                if has_sheet
+                else "the corrected records' PGA and PGV/PGA (the campaign does not give pga_g and "
+                "pgv_over_pga_s for every test; --baseline-source sheet would refuse it)"
+            ),
+            soft_wrap=True,
+            highlight=False,
+        )
     t0 = time.perf_counter()
     try:
         rows, motions, summary = run_campaign(
@@ -165,6 +217,84 @@ def validate_command(
         err.print(f"[yellow]warning:[/] {bad} run(s)/chunk(s) failed; see outcomes.csv status columns")
         return 1
     return 0
+
+
+def _check_campaign(camp: Any, base: Any, highpass: float, lowpass: float) -> str | None:
+    """What is wrong with the campaign's values under this baseline correction (None: nothing), before any run.
+
+    Lab-sheet intensity measures must be ≥ 0; the filter corners must lie below the Nyquist frequency
+    of every record and of the rate it is resampled to (a corner above it would be skipped or fail).
+    """
+    import math
+
+    from pbr_xval.validation.campaign import SHARED_CSV
+
+    sheet_file = camp.path / SHARED_CSV if camp.form == "shared" else camp.path
+    for t in camp.tests:
+        for key, unit in (("pga_g", "g"), ("pgv_over_pga_s", "s")):
+            v = t.sheet.get(key)
+            if v is not None and not (math.isfinite(v) and v >= 0):
+                return f"{sheet_file}: test {t.test}: {key} = {v:g}; expected a value ≥ 0 {unit}"
+    checked: set[float] = set()
+    for t in camp.tests:
+        dt = t.dt if t.dt is not None else t.raw_acceleration()[1]
+        if dt in checked:
+            continue
+        checked.add(dt)
+        fs = 1.0 / dt
+        rates = [("the record", fs)]
+        if base.resample_hz:
+            ratio = fs / base.resample_hz
+            down = round(ratio)
+            if down > 1 and abs(ratio - down) <= 1e-9 * ratio:
+                rates.append((f"the resampled record (--resample {base.resample_hz:g} Hz)", fs / down))
+        for opt, corner in (("--highpass", base.highpass_hz), ("--lowpass", base.lowpass_hz)):
+            for what, rate in rates:
+                if corner and corner >= rate / 2:
+                    return (
+                        f"{opt} {corner:g} Hz: at or above the Nyquist frequency {rate / 2:g} Hz of {what} "
+                        f"of test {t.test} ({t.source}, dt = {dt:g} s); expected a corner below it (0: none)"
+                    )
+    return None
+
+
+def _check_scene(
+    camp: Any, base: Any, scn: Any, scenario: Path, engines: list[str], settings: dict[str, Any], tail: float
+) -> str | None:
+    """Compile the scenario once with the first test's corrected motion and resolve every engine's
+    settings (None: all good): a bad mesh or an unknown ``--set`` key is one line, not a report of
+    failed runs."""
+    import tempfile
+
+    import numpy as np
+
+    from pbr_xval.engine import get_engine
+    from pbr_xval.runner import effective_settings
+    from pbr_xval.scenario import scenario_from_dict
+    from pbr_xval.scene import compile_scene
+    from pbr_xval.validation.campaign import baseline_correct
+    from pbr_xval.validation.runner import scenario_rock
+
+    first = camp.tests[0]
+    raw, dt = first.raw_acceleration()
+    acc, dt = baseline_correct(raw, dt, base)
+    with tempfile.TemporaryDirectory(prefix="pbr-xval-validate-") as tmp:
+        motion = Path(tmp) / "motion.txt"
+        np.savetxt(motion, acc)
+        try:
+            d = scenario_rock(scn)["scenario"]
+            exc = {"type": "record", "format": "table", "units": "m/s2", "dt": dt, "path": str(motion)}
+            exc["azimuth_deg"] = d.get("excitation", {}).get("azimuth_deg", 0.0)
+            d.update(duration=(acc.size - 1) * dt + tail, excitation=exc)
+            scene = compile_scene(scenario_from_dict(d, source=scenario))
+        except Exception as exc:  # any compile failure would fail every run
+            return f"{scenario}: {exc} (compiled with the motion of test {first.test})"
+        for e in engines:
+            try:
+                effective_settings(get_engine(e), scene, settings)
+            except Exception as exc:
+                return f"--set for --engine {e}: {exc}"
+    return None
 
 
 def _ensemble_inputs(

@@ -17,6 +17,7 @@ multiples and grid spacings with their relative spreads.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,6 +40,8 @@ __all__ = [
 ]
 
 DEFAULT_ALPHA_MULTIPLE = 8.0
+#: fewest points a closed surface is reconstructed from (a rock's shape, contact and tilt need many)
+MIN_CLOUD_POINTS = 100
 MIN_HULL_FRACTION = 0.5  # a solid below this fraction of its hull volume means the carving leaked in
 _FACE_OPPOSITE = np.array(
     [[1, 2, 3], [0, 3, 2], [0, 1, 3], [0, 2, 1]]
@@ -312,6 +315,14 @@ def alpha_solid(
     """
     p = np.asarray(points, dtype=np.float64)
     check_points(p, name)
+    if len(p) < MIN_CLOUD_POINTS:
+        raise GeometryError(
+            f"{name}: only {len(p)} points; expected at least {MIN_CLOUD_POINTS} to reconstruct a closed "
+            "surface (a scan of the whole rock)"
+        )
+    for what, v in (("alpha_multiple", alpha_multiple), ("alpha", alpha)):
+        if v is not None and not (math.isfinite(float(v)) and float(v) > 0):
+            raise GeometryError(f"{name}: {what} {v!r}: expected a positive number")
     spacing = median_spacing(p)
     if alpha is None:
         alpha_multiple = DEFAULT_ALPHA_MULTIPLE if alpha_multiple is None else float(alpha_multiple)

@@ -137,9 +137,27 @@ def split_by_plane(
     n = np.asarray(normal, float) / np.linalg.norm(normal)
     o = np.asarray(point, float)
     if isinstance(geom, trimesh.Trimesh):
-        above = trimesh.intersections.slice_mesh_plane(geom, n, o, cap=True)
-        below = trimesh.intersections.slice_mesh_plane(geom, -n, o, cap=True)
+        from pbr_xval.geometry.io import fill_small_holes
+
+        parts = []
+        for side in (n, -n):
+            # cap=True would triangulate the cut with networkx (not a dependency): slice open, then cap
+            # each planar cut loop with a fan (exact signed volume and ray parity for any simple loop)
+            part = trimesh.intersections.slice_mesh_plane(geom, side, o, cap=False)
+            if part is not None and len(part.faces):
+                part.merge_vertices()
+                part.update_faces(part.nondegenerate_faces())
+                part.remove_unreferenced_vertices()
+                if not part.is_watertight:
+                    fill_small_holes(part, max_area_fraction=np.inf)
+            parts.append(part)
+        above, below = parts
         for part, what in ((above, "above"), (below, "below")):
+            if part is not None and len(part.faces) and not part.is_watertight:
+                raise GeometryError(
+                    f"the cut plane through {o.tolist()} leaves an open surface {what} it (its cut could not "
+                    "be capped); expected a closed scan cut once"
+                )
             if part is None or len(part.faces) == 0 or not part.volume > 0:
                 raise GeometryError(
                     f"the cut plane through {o.tolist()} leaves nothing {what} it; expected a cut through the scan"

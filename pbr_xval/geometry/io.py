@@ -300,13 +300,47 @@ def fill_small_holes(mesh: trimesh.Trimesh, max_area_fraction: float = 0.25, pla
     return len(loops)
 
 
+def keep_largest_body(mesh: trimesh.Trimesh, repairs: list[str]) -> int:
+    """Keep only the largest of the mesh's disjoint bodies (by enclosed volume); return how many there were.
+
+    A scan holding two rocks, or a rock with loose fragments, is modelled as its largest body; what
+    was dropped is appended to ``repairs`` (a warning for the user).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = len(mesh.faces)
+    adj = np.asarray(mesh.face_adjacency, dtype=np.int64).reshape(-1, 2)
+    if n == 0:
+        return 0
+    graph = coo_matrix((np.ones(len(adj)), (adj[:, 0], adj[:, 1])), shape=(n, n))
+    k, labels = connected_components(graph, directed=False)
+    if k <= 1:
+        return int(k)
+    tri = np.asarray(mesh.triangles)
+    six_v = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2]))
+    vols = np.abs(np.bincount(labels, weights=six_v, minlength=k)) / 6.0
+    order = np.argsort(-vols, kind="stable")
+    keep = int(order[0])
+    mesh.update_faces(labels == keep)
+    mesh.remove_unreferenced_vertices()
+    dropped = ", ".join(f"{v:.3g}" for v in vols[order[1:6]]) + (", …" if k > 6 else "")
+    repairs.append(
+        f"the scan holds {k} disjoint bodies: modelled the largest ({vols[keep]:.4g} m³), dropped the "
+        f"other {k - 1} ({dropped} m³)"
+    )
+    return int(k)
+
+
 def close_and_orient(mesh: trimesh.Trimesh, path: str | Path, repairs: list[str]) -> trimesh.Trimesh:
     """Make ``mesh`` a closed, consistently and outward wound solid or raise :class:`GeometryError`.
 
-    Appends what was repaired to ``repairs``.
+    Appends what was repaired to ``repairs``; a mesh of several disjoint bodies is reduced to its
+    largest (:func:`keep_largest_body`).
     """
     merge_and_clean(mesh, repairs)
     mesh.remove_unreferenced_vertices()
+    keep_largest_body(mesh, repairs)
     if len(mesh.faces) < 4:
         raise GeometryError(f"{path}: only {len(mesh.faces)} non-degenerate faces; expected a closed surface")
     if not mesh.is_watertight:

@@ -505,17 +505,21 @@ def read_table(
             )
         bad = np.flatnonzero(np.abs(steps - step) > 1e-6 * step)
         if bad.size:
-            j = int(bad[0]) + 1
+            # the first step that differs from the typical (median) step is where the file goes wrong;
+            # the mean step would flag the first row of any record with one gap
+            typical = float(np.median(steps))
+            off = np.flatnonzero(np.abs(steps - typical) > 1e-6 * abs(typical))
+            j = int(off[0] if off.size else bad[0]) + 1
             raise MotionFileError(
-                f"non-uniform time step: t={t[j]!r} s after t={t[j - 1]!r} s (step {steps[j - 1]!r} s); "
-                f"expected uniform dt={step!r} s within 1e-6 relative",
+                f"non-uniform time step: t={float(t[j])!r} s after t={float(t[j - 1])!r} s "
+                f"(step {float(steps[j - 1]):.6g} s); expected uniform dt={typical:.6g} s within 1e-6 relative",
                 path, rowline[j],
             )  # fmt: skip
         if dt is not None and abs(dt - step) > 1e-6 * step:
-            raise MotionFileError(f"time column has dt={step!r} s but dt={dt!r} s was given", path)
+            raise MotionFileError(f"time column has dt={float(step)!r} s but dt={dt!r} s was given", path)
         if t[0] < 0:
             raise MotionFileError(
-                f"time column starts at {t[0]!r} s; expected a start time >= 0", path, rowline[0]
+                f"time column starts at {float(t[0])!r} s; expected a start time >= 0", path, rowline[0]
             )
         t0 = float(t[0])
     return Record(

@@ -368,7 +368,17 @@ def find_threshold(
     if not (0 < rel_tol < 0.5):
         raise ValueError(f"rel_tol: expected 0 < rel_tol < 0.5, got {rel_tol}")
     eng = get_engine(engine)
-    v0 = float(scenario.get_value(param))
+    raw = scenario.get_value(param)
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        v0 = float(raw)
+    elif raw is None and lo is not None and hi is not None:
+        v0 = math.nan  # unset in the file: the range given is scanned
+    else:
+        found = "it is unset" if raw is None else f"found {raw!r}"
+        raise ValueError(
+            f"--param {param}: the scenario {scenario.name!r} has no number there ({found}); expected a "
+            "numeric key, set in the scenario or with both --lo and --hi"
+        )
     bound = uplift_lower_bound(scenario, param) if physics_bound else None
     hi = 2.0 * v0 if hi is None else float(hi)
     if lo is None:
