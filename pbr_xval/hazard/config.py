@@ -274,6 +274,8 @@ def load_config(path: str | Path) -> ConstrainConfig:
         except HazardInputError as exc:
             raise HazardInputError(f"{w}: {exc}") from None
         rocks.append(RockInput(rid, frag, age))
+    if "description" in raw:
+        notes.insert(0, str(raw["description"]))
     im_int = None
     if "im_of_interest" in raw:
         from pbr_xval.hazard.ims import oq_factor, oq_unit
