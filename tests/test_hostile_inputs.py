@@ -703,6 +703,7 @@ def _outputs_fixture(tmp: Path) -> dict[str, str]:
         "cat": str(tmp / "c.toml"),
         "obj": str(tmp / "box.obj"),
         "camp": str(camp / "campaign.csv"),
+        "studies": str(Path(__file__).resolve().parents[1] / "examples" / "studies"),
     }
 
 
@@ -726,6 +727,9 @@ OUTPUT_CASES: list[tuple[str, list[str], str]] = [
     ("constrain-example-out-is-a-file", ["constrain", "--example", "--out", "{tmp}/afile"], "--out"),
     ("constrain-example-out-read-only", ["constrain", "--example", "--out", "{ro}/c"], "--out"),
     ("constrain-out-is-a-file", ["constrain", "{tmp}/old.toml", "--out", "{tmp}/afile"], "--out"),
+    ("choose-out-read-only", ["choose", "{cat}", "--out", "{ro}/ch"], "--out"),
+    ("report-out-is-a-file", ["report", "{studies}/housner.toml", "--out", "{tmp}/afile"], "is a file"),
+    ("demo-out-read-only", ["demo", "--out", "{ro}"], "--out"),
 ]  # fmt: skip
 
 

@@ -118,8 +118,13 @@ def choose_command(catalog: Path, budget: float, out: Path, console: Any = None)
     if not budget > 0 or not math.isfinite(budget):
         _error(con, f"--budget {budget!r}: expected a positive fraction, e.g. 0.05 or 5%")
         return 2
-    if out.exists() and not out.is_dir():
-        _error(con, f"--out {out}: is a file; expected a folder for choose.md and choose.json")
+    from pbr_xval.atomic import check_output_dir
+    from pbr_xval.errors import OutputPathError
+
+    try:
+        check_output_dir(out, "--out")
+    except OutputPathError as exc:
+        _error(con, f"{exc} (for choose.md and choose.json)")
         return 2
     result = choose(cat, budget, out, console=con)
     md, js = write_choice(result, out)

@@ -233,6 +233,14 @@ def report_command(
     except StudyFileError as exc:
         con.print(f"[red]error:[/] {escape(str(exc))}")
         return 2
+    from pbr_xval.atomic import check_output_dir
+    from pbr_xval.errors import OutputPathError
+
+    try:  # before the study runs, not after
+        check_output_dir(Path(out_root) / spec.name, "--out")
+    except OutputPathError as exc:
+        con.print(f"[red]error:[/] {escape(str(exc))}", soft_wrap=True, highlight=False)
+        return 2
     from pbr_xval.report.describe import describe_scenario
     from pbr_xval.report.verdict import build_verdict
 
@@ -405,5 +413,6 @@ def demo_command(out_root: Path = Path("reports"), quick: bool = False, console:
         return 2
     t0 = time.perf_counter()
     code = report_command(demo, out_root, con, quick=quick)
-    con.print(f"demo finished in {time.perf_counter() - t0:.0f} s" + (" (quick)" if quick else ""))
+    if code != 2:  # bad input: the one error line says it all
+        con.print(f"demo finished in {time.perf_counter() - t0:.0f} s" + (" (quick)" if quick else ""))
     return code
