@@ -475,6 +475,13 @@ class Toppling(Strict):
         description="physical criterion: tilt at which the rock is down whatever the ground does, degrees",
     )
     stop_on_topple: bool = True
+    stop_at_rest: bool = Field(
+        False,
+        description=(
+            "stop the run once the rock is at rest after the excitation has ended (its outcome is "
+            "then decided: it stands); pbr_xval.stepping.REST_* define 'at rest'"
+        ),
+    )
 
     @model_validator(mode="after")
     def _params(self) -> Toppling:
@@ -504,6 +511,8 @@ class Toppling(Strict):
             d["distance"] = self.distance
             d["definition"] = "first horizontal COM displacement >= distance"
         d["stop_on_topple"] = self.stop_on_topple
+        if self.stop_at_rest:
+            d["stop_at_rest"] = True
         return d
 
 
@@ -625,6 +634,8 @@ class Scenario(Strict):
         scenario without one hashes as before the table existed.
         """
         d = self.model_dump(mode="json", exclude={"description", "uncertainty"})
+        if not self.toppling.stop_at_rest:  # a scenario that does not set it hashes as before it existed
+            d["toppling"].pop("stop_at_rest", None)
         if self.uncertainty is not None:
             from pbr_xval.uncertainty import parse_uncertainty
 

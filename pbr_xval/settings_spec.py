@@ -192,6 +192,7 @@ SPECS: dict[str, dict[str, Spec]] = {
         "compiled": BOOL,
         "support_hull": BOOL,
         "side_nodes": BOOL,
+        "max_cpu_per_simulated_s": _nonneg("s/s"),
     },
     "mujoco": {
         "timestep": TIMESTEP,

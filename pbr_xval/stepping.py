@@ -64,6 +64,18 @@ __all__ = [
 
 GROUND_MODES = ("inertial", "moving_pedestal")
 
+#: ``toppling.stop_at_rest``: after the excitation has ended the rock is at rest, and its
+#: outcome decided (it stands), once for REST_HOLD_SAMPLES consecutive output samples (a time
+#: of REST_HOLD_SAMPLES × output_dt) its tilt stays below REST_TILT_FRACTION × the smallest
+#: critical tilt α and its energy — kinetic (rotation bounded by λ_max(I)|ω|²/2, translation
+#: from the COM's finite differences) plus the rise of its COM — stays below
+#: REST_ENERGY_FRACTION × the toppling barrier m g h_G (1/cos α − 1) (h_G: COM height above the
+#: pedestal top). With the ground at rest no work enters, so a rock with less energy than the
+#: barrier cannot reach α again: the rest of the run cannot change the outcome.
+REST_HOLD_SAMPLES = 20
+REST_TILT_FRACTION = 0.1
+REST_ENERGY_FRACTION = 0.01
+
 
 def n_steps(duration: float, dt: float) -> int:
     """Number of steps of size ``dt`` (s) that cover ``duration`` (s)."""
@@ -223,6 +235,17 @@ class Recorder:
     #: short blocks, so that a toppling decision stops the engine soon after it is taken)
     near: bool = False
     _cos_near: float = 1.0
+    #: ``toppling.stop_at_rest``: time (s) at which the run was stopped at rest, else None
+    stopped_at_rest: float | None = None
+    _rest_on: bool = False
+    _rest_since: float | None = None
+    _rest_hold: float = 0.0
+    _cos_rest: float = 1.0
+    _e_rest: float = 0.0
+    _rest_m: float = 0.0
+    _rest_i: float = 0.0
+    _rest_g: float = 0.0
+    _rest_prev: tuple[float, np.ndarray] | None = None
 
     @property
     def t(self) -> list[float]:
@@ -300,6 +323,17 @@ class Recorder:
         self._next_out = 0.0
         self._reserve(int(min(float(self.scene.duration) / self._out_dt, 1e7)) + 2)
         self._cos_near = math.cos(0.5 * alpha_min)
+        self._rest_on = bool(getattr(crit, "stop_at_rest", False))
+        if self._rest_on:
+            rock = self.scene.rock
+            self._rest_m = float(rock.mass)
+            self._rest_i = float(np.linalg.eigvalsh(np.asarray(rock.inertia, dtype=float)).max())
+            self._rest_g = float(self.scene.gravity)
+            h_g = max(float(self._com0[2]), 0.0)
+            barrier = self._rest_m * self._rest_g * h_g * (1.0 / math.cos(min(alpha_min, 1.5)) - 1.0)
+            self._e_rest = REST_ENERGY_FRACTION * barrier
+            self._cos_rest = math.cos(REST_TILT_FRACTION * alpha_min)
+            self._rest_hold = REST_HOLD_SAMPLES * self._out_dt
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
         """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
@@ -412,6 +446,15 @@ class Recorder:
         m = len(t)
         if m == 0:
             return False, 0
+        rest_stop = False
+        if self._rest_on and not self._toppled and float(t[-1]) >= self._t_free - self._eps_t:
+            j = self._rest_row(t, com, rot, omega)
+            if j is not None:
+                m = j + 1
+                t, com, rot, omega = t[:m], com[:m], rot[:m], omega[:m]
+                ncon = None if ncon is None else ncon[:m]
+                pen = None if pen is None else pen[:m]
+                force_last = rest_stop = True
         zx, zy, zz = self._z0l
         x0, y0, z0 = self._com0l
         with np.errstate(invalid="ignore", over="ignore"):
@@ -456,7 +499,44 @@ class Recorder:
             if stop:
                 return True, j + 1
             i = j + 1
+        if rest_stop and not self.failed and not self._toppled:
+            self.stopped_at_rest = float(t[-1])
+            return True, m
         return False, m
+
+    def _rest_row(self, t: np.ndarray, com: np.ndarray, rot: np.ndarray, omega: np.ndarray) -> int | None:
+        """``toppling.stop_at_rest``: the first row of a block at which the rock has been at rest
+        (see :data:`REST_HOLD_SAMPLES`) for the hold time after the excitation ended, else None.
+
+        Rows before the excitation's end break the hold; the hold carries over between blocks."""
+        zx, zy, zz = self._z0l
+        with np.errstate(invalid="ignore", over="ignore"):
+            cos = rot[:, 6] * zx + rot[:, 7] * zy + rot[:, 8] * zz
+            prev_t, prev_c = self._rest_prev if self._rest_prev is not None else (math.nan, com[0])
+            tt = np.concatenate(([prev_t], t))
+            cc = np.concatenate((np.asarray(prev_c).reshape(1, 3), com))
+            dtr = np.diff(tt)
+            v2 = (np.diff(cc, axis=0) ** 2).sum(axis=1) / np.where(dtr > 0, dtr * dtr, np.nan)
+            v2 = np.where(np.isfinite(v2), v2, np.inf)  # no earlier row: not yet at rest
+            energy = (
+                0.5 * self._rest_i * (omega * omega).sum(axis=1)
+                + 0.5 * self._rest_m * v2
+                + self._rest_m * self._rest_g * np.maximum(com[:, 2] - self._com0[2], 0.0)
+            )
+            ok = (t >= self._t_free - self._eps_t) & (cos >= self._cos_rest) & (energy < self._e_rest)
+        self._rest_prev = (float(t[-1]), np.array(com[-1], dtype=float))
+        since = self._rest_since
+        for j, (tj, okj) in enumerate(zip(t.tolist(), ok.tolist(), strict=True)):
+            if not okj:
+                since = None
+                continue
+            if since is None:
+                since = tj
+            if tj - since >= self._rest_hold - self._eps_t:
+                self._rest_since = since
+                return j
+        self._rest_since = since
+        return None
 
     def _bulk(
         self,
@@ -572,6 +652,9 @@ class Recorder:
             "nan_or_explosion": bool(self.failed),
             "toppling_undecided": bool(self.undecided),
         }
+        if self._rest_on:
+            diag["stopped_at_rest"] = self.stopped_at_rest is not None
+            diag["stopped_at_rest_s"] = self.stopped_at_rest
         diag.update(diagnostics or {})
         n = self._n
         rel = self._R[:n].reshape(n, 3, 3) @ self._r0t

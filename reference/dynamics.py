@@ -103,6 +103,13 @@ __all__ = [
 #: contact basis rows (n, x, y) for a horizontal pedestal surface
 BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 
+#: a step that ends with its deepest node at most this fraction of ε beyond the band (−ε) is
+#: accepted, not stepped back: halving Δt cannot remove a penetration that was already at the
+#: band's edge when the step began (a resting node drifting by round-off), and every halved
+#: step would be rejected again — the step-back cascade. The engine then projects the rock
+#: back onto the band (``ReferenceEngine``: ``band_projections`` in the diagnostics).
+BAND_TOLERANCE = 1e-3
+
 _ZERO3 = np.zeros(3)
 _ZERO3.flags.writeable = False
 _EYE3 = np.eye(3)
@@ -771,7 +778,7 @@ class Stepper:
                 self.last_force = np.array((f0, f1, f2))
                 self.last_torque = np.array((q0, q1, q2))
                 self.last_omega = _rest[:3]
-                if code == kernel.STEP_REJECTED:
+                if code == kernel.STEP_REJECTED and gmin < -self.eps * (1.0 + BAND_TOLERANCE):
                     raise StepRejected(gmin)
                 return State.from_buf(out), its
             st.general_steps += 1
@@ -841,7 +848,7 @@ class Stepper:
         self.last_gmin = gmin
         self.last_ncontacts = int(np.sum(gaps <= self.eps))
         self.last_omega = self.omega(s1)
-        if gmin < -self.eps and not self.accept_any:
+        if gmin < -self.eps * (1.0 + BAND_TOLERANCE) and not self.accept_any:
             raise StepRejected(gmin)
         return s1, its
 

@@ -32,11 +32,15 @@ from pbr_xval.status import RunStatus
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
 
-__all__ = ["MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
+__all__ = ["BUDGET_GRACE_S", "MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
 
 #: a step accepted after the step-back limit is reported as an event (the first this many
 #: of a run; ``min_timestep_hits`` counts them all)
 MAX_ACCEPT_EVENTS = 20
+
+#: simulated seconds of grace of the cost budget (``max_cpu_per_simulated_s``): the budget of a
+#: run at simulated time t is max(t, this) × the setting (start-up: the first kernel call)
+BUDGET_GRACE_S = 2.0
 
 
 def basal_nodes(scene: Scene, settings: Mapping[str, Any]) -> np.ndarray:
@@ -197,6 +201,11 @@ class ReferenceEngine(EngineBase):
                 "support_hull": True,
                 # nodes = "scene": add the rock's other hull vertices (large rotations)
                 "side_nodes": True,
+                # cost bound: a run whose stepping CPU time exceeds this many CPU seconds per
+                # simulated second (counted from 2 simulated s on) is stopped, status
+                # "timeout" with the reason; 0 disables. The faithful run of a scanned rock
+                # costs 0.03–0.3 CPU s per simulated s (reference/PERFORMANCE.md)
+                "max_cpu_per_simulated_s": 1.0,
             }
         }
 
@@ -294,6 +303,9 @@ class ReferenceEngine(EngineBase):
         accepted_pen_max = 0.0
         next_out = 0.0
         guard = self._near_topple_guard(scene)
+        over_budget = ""
+        band_projections = 0
+        band_lift_max = 0.0
         wall0 = time.perf_counter()
         cpu0 = time.process_time()
         t = 0.0
@@ -313,7 +325,21 @@ class ReferenceEngine(EngineBase):
             bp_i = 0
             max_back = int(s["max_stepbacks"])
             min_dt = float(s["min_timestep"])
+            budget = float(s["max_cpu_per_simulated_s"])
+            n_check = 0
             while not stop and t < duration - 1e-12 * dt_nom:
+                n_check += 1
+                if budget > 0 and n_check >= 64:
+                    n_check = 0
+                    cpu_used = time.process_time() - cpu0
+                    if cpu_used > budget * max(t, BUDGET_GRACE_S):
+                        over_budget = (
+                            f"reference: cost budget exceeded at t = {t:.6g} s: {cpu_used:.3g} CPU s "
+                            f"(budget {budget:g} CPU s per simulated s, counted from {BUDGET_GRACE_S:g} s; "
+                            f"{stepper.stats.stepbacks} step-backs, {stepper.stats.min_timestep_hits} steps "
+                            "accepted at the step-back limit); stopped"
+                        )
+                        break
                 while bp_i < len(bps) and bps[bp_i] <= t + 1e-12 * dt_nom:
                     bp_i += 1
                 t_next_bp = bps[bp_i] if bp_i < len(bps) else duration
@@ -367,6 +393,17 @@ class ReferenceEngine(EngineBase):
                         stepper.stats.stepbacks += 1
                         h *= 0.5
                 state = new
+                if stepper.last_gmin < -stepper.eps:
+                    # deviation from the paper: a node left deeper than ε (a step accepted within
+                    # BAND_TOLERANCE of the band, or at the step-back limit) is projected back onto
+                    # the band: the rock is moved along the pedestal normal by the excess (m), so
+                    # that the next step does not start out of the band and cascade into step-backs
+                    lift = -stepper.eps - float(stepper.last_gmin)
+                    state.x[2] += lift
+                    stepper.last_gaps = stepper.last_gaps + lift
+                    stepper.last_gmin = -stepper.eps
+                    band_projections += 1
+                    band_lift_max = max(band_lift_max, lift)
                 t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
                 stepper.stats.steps += 1
                 n_cont = stepper.last_ncontacts
@@ -402,6 +439,21 @@ class ReferenceEngine(EngineBase):
                 ):
                     held_from = t
                     tt = t
+                    if getattr(scene.toppling, "stop_at_rest", False):
+                        # toppling.stop_at_rest: the outcome is decided (a rigid rock at rest on a
+                        # still pedestal stays there); the run ends here, its last state a sample
+                        if not rec.t or rec.t[-1] != t:
+                            rec.record(
+                                t,
+                                com_rel,
+                                state.R,
+                                stepper.omega(state),
+                                n_contacts=n_cont,
+                                penetration=pen,
+                                force=True,
+                            )
+                        rec.stopped_at_rest = t
+                        break
                     while not stop and tt < duration - 1e-12 * dt_nom:
                         tt = min(tt + float(scene.output_dt), duration)
                         stop = rec.record(
@@ -432,8 +484,15 @@ class ReferenceEngine(EngineBase):
             contacts_max=contacts_max,
             accepted_penetration_max_m=accepted_pen_max,
         )
+        diag["budget_exceeded"] = bool(over_budget)
+        diag["band_projections"] = band_projections
+        diag["band_projection_max_m"] = band_lift_max
         traj = rec.trajectory(self.name, s, self.versions(), diag)
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
+        if over_budget and not message and traj.ok:
+            traj.events.append(Event("budget_exceeded", t, {"reason": over_budget}))
+            traj.status = RunStatus.TIMEOUT
+            traj.message = over_budget
         if message:
             traj.events.append(Event("failed", t, {"reason": message}))
             traj.status = RunStatus.FAILED

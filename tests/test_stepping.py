@@ -331,3 +331,49 @@ def test_short_blocks_near_toppling_bound_the_overshoot() -> None:
     rec, diag = run_steps(st, scene, DT, block=256)
     assert any(e.kind == "toppled" for e in rec.events)
     assert 0 <= st.reached - diag["steps"] <= 256 // 8
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet", "dart", "reference"])
+def test_stop_at_rest_ends_early_with_the_full_runs_outcome(engine: str) -> None:
+    """``toppling.stop_at_rest`` (issue 23): a block rocked by a pulse below its threshold comes
+    to rest after the pulse and the run stops there — same outcome, same peak tilt, much
+    shorter; a block that topples is decided as before (the stop never applies)."""
+    from pbr_xval.engine import EngineNotAvailable, get_engine
+    from pbr_xval.runner import run_scene
+
+    try:
+        get_engine(engine)
+    except (EngineNotAvailable, ImportError):
+        pytest.skip(f"{engine} not installed")
+
+    def run(a: float, on: bool):
+        exc = {"type": "half_sine", "amplitude": a, "frequency": 1.0, "phase": "housner_uplift"}
+        toppling = {"stop_at_rest": True} if on else {}
+        return run_scene(
+            compile_scene(housner_scenario(duration=6.0, excitation=exc, toppling=toppling)), engine
+        )
+
+    full, short = run(4.0, False), run(4.0, True)
+    assert full.ok and short.ok
+    assert not full.toppled and not short.toppled
+    assert full.tilt().max() > 0.01  # it rocked
+    assert "stopped_at_rest" not in full.diagnostics  # off: nothing new recorded, nothing changed
+    assert short.diagnostics["stopped_at_rest"] is True
+    t_rest = short.diagnostics["stopped_at_rest_s"]
+    assert short.t[-1] == pytest.approx(t_rest) and t_rest < 2.5 < full.t[-1]
+    assert short.tilt().max() == pytest.approx(full.tilt().max(), rel=1e-9)
+    assert short.scene_info["toppling"]["stop_at_rest"] is True
+    n = short.t.size - 1  # identical up to the stop (the stop only truncates)
+    assert np.array_equal(short.t[:n], full.t[:n]) and np.array_equal(short.com[:n], full.com[:n])
+    top_full, top_short = run(5.7, False), run(5.7, True)
+    assert top_full.toppled and top_short.toppled
+    assert top_short.toppled_at == top_full.toppled_at and top_short.fingerprint() == top_full.fingerprint()
+    assert top_short.diagnostics["stopped_at_rest"] is False
+
+
+def test_stop_at_rest_leaves_the_scenario_hash_when_unset() -> None:
+    """A scenario that does not set ``stop_at_rest`` hashes as before the key existed."""
+    off = housner_scenario()
+    assert "stop_at_rest" not in off.normalised()["toppling"]
+    assert housner_scenario(toppling={"stop_at_rest": False}).content_hash() == off.content_hash()
+    assert housner_scenario(toppling={"stop_at_rest": True}).content_hash() != off.content_hash()

@@ -314,3 +314,78 @@ def test_side_nodes_are_the_hull_vertices_above_the_com():
         np.testing.assert_allclose(top[:, 2], base[:, 2].min() + 1.2)  # the top face (1.2 m high)
         assert np.all(top[:, 2] > com[2])
         assert len(basal_nodes(scene, {"nodes": "scene", "max_nodes": 256, "side_nodes": False})) == len(base)
+
+
+# ----------------------------------------------------------------------- bounded cost (issue 23)
+def test_run_over_its_cost_budget_stops_with_status_and_reason():
+    """A run whose stepping CPU exceeds ``max_cpu_per_simulated_s`` × max(t, grace) stops:
+    status timeout, the reason in the message and as an event, never a hang."""
+    from pbr_xval.status import RunStatus
+
+    traj = run_scene(_housner(5.0, duration=3.0), "reference", {"max_cpu_per_simulated_s": 1e-6})
+    assert traj.status == RunStatus.TIMEOUT
+    assert "cost budget exceeded" in traj.message
+    assert [e.kind for e in traj.events if e.kind == "budget_exceeded"] == ["budget_exceeded"]
+    assert traj.diagnostics["budget_exceeded"] is True
+    assert traj.diagnostics["simulated_s"] < 0.1  # stopped at the first check (64 steps)
+    ok = run_scene(_housner(5.0, duration=1.0), "reference")  # the default budget: untouched
+    assert ok.ok and ok.diagnostics["budget_exceeded"] is False
+
+
+def test_penetration_at_the_band_edge_is_accepted_not_stepped_back():
+    """The step-back cascade (SP1, issue 23): a resting node that drifted by round-off just
+    past −ε made every step — at every halving — fail the ε check, so the run advanced by
+    Δt/2¹² per 13 kernel calls. A step ending within BAND_TOLERANCE·ε of the band is accepted
+    (and the engine projects it back); one ending deeper is still rejected."""
+    from pbr_xval.reference.dynamics import BAND_TOLERANCE, Body, Pedestal, State, Stepper, StepRejected
+    from pbr_xval.reference.engine import ReferenceEngine
+
+    s = ReferenceEngine().resolve_settings({})
+    eps = s["epsilon"]
+    hx, hy, hz = 0.2, 0.2, 0.6
+    nodes = np.array([[x, y, -hz] for x in (-hx, hx) for y in (-hy, hy)])
+    m = 2400.0 * 8 * hx * hy * hz
+    inertia = np.diag([m / 3 * (hy**2 + hz**2), m / 3 * (hx**2 + hz**2), m / 3 * (hx**2 + hy**2)])
+    g = np.array([0.0, 0.0, -G])
+    for sink, rejected in ((1.0 + 0.5 * BAND_TOLERANCE, False), (1.0 + 10 * BAND_TOLERANCE, True)):
+        st = Stepper(Body(m, inertia, nodes), Pedestal("plane"), lambda t: g, 0.6, 0.6, 0.0, s)
+        state = State(np.array([0.0, 0.0, hz - sink * eps]), np.zeros(3), np.eye(3), np.zeros(3))
+        try:
+            st.step(state, 0.0, 1e-3)
+            assert not rejected
+        except StepRejected:
+            assert rejected
+
+
+def test_no_stepback_cascade_on_sp1_test18():
+    """SP1 test 18 (0.1 g, the rock standing): before the band tolerance it cascaded into
+    45,713 step-backs and 3,802 steps accepted at the limit by t = 23.6 s (and ran on for
+    minutes); now a few band projections of ~1e-9 m and a few seconds of CPU."""
+    import tempfile
+    from pathlib import Path
+
+    import pytest
+
+    from pbr_xval.catalog.tasks import scenario_dict
+    from pbr_xval.scenario import load_scenario, scenario_from_dict
+    from pbr_xval.validation.campaign import Baseline, load_campaign
+    from pbr_xval.validation.runner import build_validation_chunks, prepare_motions
+
+    root = Path(__file__).resolve().parents[2]
+    data = root.parent / "shared" / "data" / "shake_table"
+    if not (data / "experiments.csv").is_file():
+        pytest.skip("the shared shake-table data is not beside the checkout")
+    camp = load_campaign(data, 1).select(["18"])
+    scn = load_scenario(root / "examples" / "validation" / "sp1.toml")
+    with tempfile.TemporaryDirectory() as tmp:
+        motions = prepare_motions(camp, Baseline(), Path(tmp))
+        (chunk,) = build_validation_chunks(camp, motions, scn, ["reference"])
+        m = chunk.motions[0]
+        scene = compile_scene(scenario_from_dict(scenario_dict(chunk, m, chunk.rock["friction_min"], 1)))
+        traj = run_scene(scene, "reference")
+    d = traj.diagnostics
+    assert traj.ok, traj.message
+    assert not traj.toppled  # observed: it stood
+    assert d["min_timestep_hits"] == 0 and d["stepbacks"] < 100
+    assert d["band_projection_max_m"] <= 1e-3 * d["epsilon_m"]
+    assert d["cpu_s"] < 0.5 * d["simulated_s"]  # well inside the default budget
