@@ -74,7 +74,8 @@ def candidate_settings(
     """engines × profiles × timesteps × collisions; an axis an engine has no setting for is skipped.
 
     ``profiles`` None: each engine's default profile. ``timesteps`` None: the profile's own;
-    ``collisions`` None: the profile's own (``auto``: the scene compiler's choice).
+    ``collisions`` None: the profile's own (``auto``: the scene compiler's choice); an entry
+    ``engine:kind`` (e.g. ``mujoco:coacd``) applies to that engine only.
     """
     from pbr_xval.engine import get_engine
 
@@ -91,7 +92,8 @@ def candidate_settings(
         for p in names:
             keys = profs[p]
             dts: list[float | None] = list(timesteps) if (timesteps and "timestep" in keys) else [None]
-            cols: list[str | None] = list(collisions) if (collisions and "collision" in keys) else [None]
+            mine = [c.split(":", 1)[-1] for c in collisions or [] if ":" not in c or c.startswith(name + ":")]
+            cols: list[str | None] = list(mine) if (mine and "collision" in keys) else [None]
             for dt in dts:
                 for col in cols:
                     s: dict[str, Any] = {}

@@ -80,7 +80,10 @@ def choose(
         str | None, typer.Option(help="time steps, s, comma-separated (default: the profile's)")
     ] = None,
     collision: Annotated[
-        str | None, typer.Option(help="collision geometries, comma-separated: hull,coacd,decimated")
+        str | None,
+        typer.Option(
+            help="collision geometries, comma-separated: hull,coacd,decimated (engine:kind for one engine)"
+        ),
     ] = None,
     tests: Annotated[str | None, typer.Option(help="campaign tests, comma-separated")] = None,
     limit: Annotated[int | None, typer.Option(help="the first N (selected) tests")] = None,

@@ -82,7 +82,7 @@ def choose_campaign_command(
         return fail(str(exc))
     cols = _words(collisions)
     for c in cols or []:
-        if c not in (COLLISION.choices or ()):
+        if c.split(":", 1)[-1] not in (COLLISION.choices or ()):
             return fail(f"--collision {c!r}: expected one of {', '.join(map(str, COLLISION.choices or ()))}")
     engines = engines or ["mujoco", "pybullet"]
     for e in engines:

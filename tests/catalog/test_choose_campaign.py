@@ -94,6 +94,10 @@ def test_candidates_skip_axes_an_engine_lacks():
     assert c[0].settings == {}
     assert c[-1] == Setting("mujoco", "faithful", {"timestep": 4e-3, "collision": "decimated"})
     assert c[-1].settings_text == "profile=faithful,timestep=0.004,collision=decimated"
+    only = candidate_settings(["mujoco", "pybullet"], collisions=["hull", "mujoco:coacd"])
+    assert [(s.engine, s.settings["collision"]) for s in only] == [
+        ("mujoco", "hull"), ("mujoco", "coacd"), ("pybullet", "hull"),
+    ]  # fmt: skip
 
 
 def test_choose_campaign_cli(tmp_path, capsys):
