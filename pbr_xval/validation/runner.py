@@ -82,6 +82,9 @@ def scenario_rock(scn: Any, rock_id: str | None = None) -> dict[str, Any]:
     if isinstance(ped, dict) and "path" in ped:
         ped["path"] = str(scn.resolve_path(ped["path"]).resolve())
     d.get("excitation", {}).pop("vertical", None)
+    # a run stops once the rock is at rest after the table motion (its outcome is decided; the
+    # rest of the 3 s tail cannot change it): docs/toppling.md, ``stop_at_rest``
+    d.setdefault("toppling", {}).setdefault("stop_at_rest", True)
     mu = float(scn.contact.friction_static)
     return {
         "id": _safe(rock_id or scn.name),
