@@ -295,7 +295,7 @@ def _azimuth(r: StudyResult) -> StudyVerdict:
             continue
         if d.agreeing:
             lo_, hi_ = min(d.levels[e] for e in d.agreeing), max(d.levels[e] for e in d.agreeing)
-            rng = f"{_g(lo_, 4)} m/s²" if len(d.agreeing) == 1 else f"{_g(lo_, 4)}–{_g(hi_, 4)} m/s²"
+            rng = f"{_g(lo_, 4)} m/s²" if _g(lo_, 4) == _g(hi_, 4) else f"{_g(lo_, 4)}–{_g(hi_, 4)} m/s²"
             parts = []
             for e in sorted(d.outliers, key=lambda x: d.levels[x]):
                 dev = d.levels[e] / statistics.fmean(d.levels[a] for a in d.agreeing) - 1
@@ -787,6 +787,24 @@ def _bootstrap_f1_diff(obs: Any, a: Any, b: Any, n: int = 2000, seed: int = 0) -
     return float(np.quantile(d, 0.05)), float(np.quantile(d, 0.95))
 
 
+def _num(x: Any) -> float | None:
+    if isinstance(x, bool):
+        return float(x)
+    return _f(x)
+
+
+def _score_text(v: Any) -> str:
+    import numpy as np
+
+    if isinstance(v, np.generic):
+        v = v.item()
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "—"
+        return f"{v:.0f}" if v.is_integer() and abs(v) > 1 else f"{v:.3f}"
+    return str(v)
+
+
 def validation_verdict(scores: Any, outcomes: Any, engines: Sequence[str]) -> StudyVerdict:
     """Each model's scores side by side; where physics engines predict different outcomes."""
     import numpy as np
@@ -807,14 +825,7 @@ def validation_verdict(scores: Any, outcomes: Any, engines: Sequence[str]) -> St
     for _, r in scores.iterrows():
         row = [VCell(str(r["model"]))]
         for c in cols:
-            v = r[c]
-            row.append(
-                VCell(
-                    f"{v:.3f}"
-                    if isinstance(v, float) and math.isfinite(v) and not float(v).is_integer()
-                    else str(v)
-                )
-            )
+            row.append(VCell(_score_text(r[c])))
         sv.rows.append(row)
     if "f1" in scores:
         best = scores.loc[scores["f1"].astype(float).idxmax()]
@@ -829,10 +840,9 @@ def validation_verdict(scores: Any, outcomes: Any, engines: Sequence[str]) -> St
         col = f"pred_{m}"
         if col in outcomes:
             v = outcomes[col].to_numpy(object)
-            preds[m] = (
-                np.array([x is not None and x == x for x in v]),
-                np.array([bool(x) if x is not None and x == x else False for x in v]),
-            )
+            valid = np.array([_num(x) is not None for x in v])
+            # a probability (an ensemble's share of toppling runs) predicts toppling at ≥ 0.5
+            preds[m] = (valid, np.array([(_num(x) or 0.0) >= 0.5 for x in v]))
     for a, b in itertools.combinations([m for m in engines if m in preds], 2):
         va, pa = preds[a]
         vb, pb = preds[b]
@@ -988,9 +998,11 @@ def settings_short(by_study: Mapping[str, Any]) -> str:
 def verdict_html(sv: StudyVerdict, engines_html: str = "") -> str:
     """The verdict block as HTML (for the validate and constrain pages, which are not templated)."""
     dis = (
-        '<ul class="findings">' + "".join(f"<li>{_md(d)}</li>" for d in sv.disagreements) + "</ul>"
+        '<ul class="findings disagreements">'
+        + "".join(f"<li>{_md(d)}</li>" for d in sv.disagreements)
+        + "</ul>"
         if sv.disagreements
-        else '<p class="small">No disagreement between engines beyond tolerance.</p>'
+        else '<p class="small disagreements">No disagreement between engines beyond tolerance.</p>'
     )
     table = ""
     if sv.header and sv.rows:
@@ -1005,7 +1017,7 @@ def verdict_html(sv: StudyVerdict, engines_html: str = "") -> str:
         f'<section id="verdict" class="study-verdict" data-kind="{html.escape(sv.kind)}">'
         f"<h2>Verdict</h2>{engines_html}"
         f'<p class="small">Ran: {html.escape(sv.ran)}</p>'
-        + "<ul>"
+        + '<ul class="headlines">'
         + "".join(f"<li>{_md(a)}</li>" for a in sv.answer)
         + "</ul><h3>Disagreement beyond tolerance</h3>"
         + dis
@@ -1069,6 +1081,8 @@ VERDICT_CSS = (
     "text-overflow:ellipsis}#engines-panel h3{margin:.2em 0;font-size:1em}"
     "td.pass{background:#eef8ee}td.attention{background:#fff3dd}td.failed{background:#fde8e8}"
     ".small{font-size:.88em;color:#444}"
+    # the page's figures and wide tables stay within its width (a wide table scrolls in place)
+    "img{max-width:100%;height:auto}table.dataframe{display:block;max-width:100%;overflow-x:auto}"
 )
 
 
