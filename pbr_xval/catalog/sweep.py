@@ -47,6 +47,8 @@ class SweepSummary:
     peak_rss_mb: dict[int, float] = field(default_factory=dict)
     failures: list[dict[str, str]] = field(default_factory=list)
     dashboard: str | None = None
+    #: runs in the chunks done whose status is not ok (failed, timeout, ...): progress lines
+    runs_not_ok: int = 0
 
     @property
     def sims_per_s(self) -> float:
@@ -70,6 +72,7 @@ class SweepSummary:
             self.compute_s += float(res["compute_s"])
             self.write_s += float(res["write_s"])
             self.sim_s += float(res.get("sim_s", 0.0))
+            self.runs_not_ok += int(res.get("not_ok", 0))
         pid = int(res.get("pid", 0))
         self.peak_rss_mb[pid] = max(self.peak_rss_mb.get(pid, 0.0), float(res.get("rss_mb", 0.0)))
 
@@ -267,6 +270,41 @@ def _dask(
 
 
 # ------------------------------------------------------------------ driver
+#: off a terminal, a progress line at least every this many seconds, and at every 5 % done
+PLAIN_PROGRESS_S = 10.0
+
+
+class _PlainProgress:
+    """Progress as plain lines when the console is not a terminal (``validate: 37/196 done, 0
+    chunks failed, 1 runs not ok, 41 s, ETA 95 s``), every :data:`PLAIN_PROGRESS_S` seconds and
+    at every 5 % done."""
+
+    def __init__(self, say: Callable[[str], None], label: str, total: int, summary: SweepSummary) -> None:
+        self.say, self.label, self.total, self.summary = say, label, total, summary
+        self.t0 = self.last = time.monotonic()
+        self.ran = 0
+        self.step = -1
+
+    def start(self, todo: int) -> None:
+        self.say(
+            f"{self.label}: {self.total} chunks, {self.total - todo} already in the store, {todo} to run"
+        )
+
+    def tick(self) -> None:
+        self.ran += 1
+        done = self.summary.skipped + self.ran
+        now = time.monotonic()
+        step = 20 * done // max(1, self.total)
+        if now - self.last < PLAIN_PROGRESS_S and step == self.step and done < self.total:
+            return
+        self.last, self.step = now, step
+        el = now - self.t0
+        left = self.total - done
+        eta = f"ETA {el / self.ran * left:.0f} s" if left else "finished"
+        bad = f"{self.summary.failed} chunks failed, {self.summary.runs_not_ok} runs not ok"
+        self.say(f"{self.label}: {done}/{self.total} done, {bad}, {el:.0f} s, {eta}")
+
+
 def run_chunks(
     chunks: list[ChunkSpec],
     out: str | Path,
@@ -298,7 +336,11 @@ def run_chunks(
     say = (lambda s: console.print(s)) if console is not None else (lambda s: None)
     bar_ctx: Any = contextlib.nullcontext()
     task = None
-    if progress and console is not None:
+    # off a terminal (a pipe, a file, a batch job) a bar draws nothing until the end: plain lines
+    plain = _PlainProgress(say, description, len(chunks), summary) if progress and console is not None and not console.is_terminal else None  # fmt: skip
+    if plain is not None:
+        plain.start(len(todo))
+    elif progress and console is not None:
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
@@ -319,6 +361,8 @@ def run_chunks(
         def tick() -> None:
             if bar is not None:
                 bar.advance(task)
+            elif plain is not None:
+                plain.tick()
 
         if todo:
             if executor == "local":

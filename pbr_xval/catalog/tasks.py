@@ -408,6 +408,7 @@ def execute_chunk(spec_json: str, out: str, skip_existing: bool = True) -> dict[
         "compute_s": t1 - t0,
         "write_s": t2 - t1,
         "sim_s": float(sum(r["wall_s"] for r in rows)),
+        "not_ok": sum(1 for r in rows if r["status"] != "ok"),
         "pid": os.getpid(),
         "rss_mb": _peak_rss_mb(),
     }
