@@ -7,7 +7,11 @@
 * :mod:`~pbr_xval.hazard.curves` — site hazard curves, readers for CSV and OpenQuake output.
 * :mod:`~pbr_xval.hazard.nrml` — NRML ``fragilityModel`` writer and readers.
 * :mod:`~pbr_xval.hazard.survival` — survival probability, joint survival, reweighting of hazard
-  branches (constrained mean and fractile curves).
+  branches (constrained mean and fractile curves), the check that a curve spans a fragility.
+* :mod:`~pbr_xval.hazard.uncertainty` — the fragility's draws carried into P_s and the reweighted
+  hazard, with variance shares (hazard branch, fragility, exposure age).
+* :mod:`~pbr_xval.hazard.vector` — the vector fragility (PGA × PGV/PGA) as a PGA fragility under a
+  stated model of PGV/PGA given PGA.
 * :mod:`~pbr_xval.hazard.report` and :mod:`~pbr_xval.hazard.example` — the ``pbr-xval constrain``
   report and its synthetic example.
 
@@ -36,35 +40,47 @@ from pbr_xval.hazard.survival import (
     Age,
     Constraint,
     RockInput,
+    TruncationCheck,
     branches_from_quantiles,
     constrain,
     joint_survival,
     survival_probability,
     toppling_rate,
+    truncation_check,
     weighted_quantile,
 )
+from pbr_xval.hazard.uncertainty import FragilityDraws, UncertaintyResult, draws_from_profile, propagate
+from pbr_xval.hazard.vector import PgvPgaModel, VectorFragility
 
 __all__ = [
     "Age",
     "Constraint",
     "DiscreteFragility",
+    "FragilityDraws",
     "HazardCurve",
     "HazardInputError",
     "LognormalFragility",
+    "PgvPgaModel",
     "RockInput",
     "StepFragility",
+    "TruncationCheck",
+    "UncertaintyResult",
     "UnionFragility",
+    "VectorFragility",
     "branches_from_quantiles",
     "canonical_im",
     "constrain",
+    "draws_from_profile",
     "joint_survival",
     "lognormal_to_moments",
     "moments_to_lognormal",
     "poe_to_rate",
+    "propagate",
     "rate_to_poe",
     "read_hazard_curve",
     "read_hazard_curves",
     "survival_probability",
     "toppling_rate",
+    "truncation_check",
     "weighted_quantile",
 ]
