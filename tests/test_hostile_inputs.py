@@ -275,6 +275,7 @@ def _error_lines(output: str) -> list[str]:
 def _check(code: int, output: str, needle: str, elapsed: float) -> None:
     assert code != 0, f"exit code 0:\n{output}"
     assert "Traceback" not in output, output
+    assert "np.float64" not in output, output  # plain numbers in messages
     lines = _error_lines(output)
     assert len(lines) == 1, f"expected one error line, got:\n{output}"
     assert needle.lower() in lines[0].lower(), f"{needle!r} not in {lines[0]!r}"
@@ -807,6 +808,15 @@ def test_rock_cli(tmp_path: Path, args: list[str], needle: str) -> None:
     scan = args.pop(0) if args and not args[0].startswith("-") else str(tmp_path / "box.obj")
     code, out, elapsed = _invoke(["rock", scan, "--out", str(tmp_path / "r"), *args])
     _check(code, out, needle, elapsed)
+    assert not (tmp_path / "r").exists()
+
+
+def test_rock_grid_spacing_tiny_subprocess(tmp_path: Path) -> None:
+    """`--grid-spacing 1e-5` used to allocate 47.7 GiB (MemoryError); a real process answers in one line."""
+    box_obj(tmp_path / "box.obj")
+    code, out, elapsed = _cli("rock", "box.obj", "--grid-spacing", "1e-5", "--out", "r", cwd=tmp_path)
+    assert code not in (-9, 124, 137), f"killed after {elapsed:.1f} s:\n{out}"
+    _check(code, out, "at least", elapsed)
     assert not (tmp_path / "r").exists()
 
 
