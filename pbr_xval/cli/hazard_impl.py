@@ -63,6 +63,7 @@ def fragility_command(
     from pbr_xval.errors import OutputPathError
     from pbr_xval.hazard.fit import compare_ims, fit_sweep, sweep_intensity_measures
     from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.ims import oq_factor, oq_unit
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
 
     con = _console(console)
@@ -130,10 +131,12 @@ def fragility_command(
         write_fragility_model(out / "fragility_discrete.xml", frags, "discrete")
     for r in fits.itertuples():
         if r.status == "ok":
-            ci_txt = (f"  θ ∈ [{r.theta_lo:.4g}, {r.theta_hi:.4g}], β ∈ [{r.beta_lo:.3g}, {r.beta_hi:.3g}]"
-                      if r.theta_lo == r.theta_lo else f"  b = {r.coef}, LR p = {r.lr_p:.3g}")  # fmt: skip
-            con.print(escape(f"{r.engine} {r.rock_id} {r.im}: θ = {r.theta:.4g} {r.unit}, β = {r.beta:.3g}{ci_txt}"),
-                      highlight=False)  # fmt: skip
+            # the field's units on the console (g for PGA/SA, cm/s for PGV); the files stay SI
+            k, fu = oq_factor(r.im.split("|")[0]), oq_unit(r.im.split("|")[0])
+            ci_txt = (f"  θ ∈ [{r.theta_lo / k:.4g}, {r.theta_hi / k:.4g}] {fu}, β ∈ [{r.beta_lo:.3g}, {r.beta_hi:.3g}]"
+                      if r.theta_lo == r.theta_lo else f"  b = {r.coef} (SI), LR p = {r.lr_p:.3g}")  # fmt: skip
+            con.print(escape(f"{r.engine} {r.rock_id} {r.im}: θ = {r.theta / k:.4g} {fu} ({r.theta:.4g} {r.unit}), "
+                             f"β = {r.beta:.3g}{ci_txt}"), highlight=False)  # fmt: skip
         else:
             con.print(escape(f"{r.engine} {r.rock_id} {r.im}: {r.status} — {r.message}"), highlight=False)
     for r in cmp.itertuples():

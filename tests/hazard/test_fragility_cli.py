@@ -79,6 +79,10 @@ def test_fragility_command_writes_fits_and_nrml(sweep, tmp_path):
     ok = [r for r in rows if r["status"] == "ok" and r["im"] != "PGA|PGV/PGA"]
     # PGA stripes 3, 5, 8 m/s² topple 0/2, 1/2, 2/2: at least PGA has a converged fit
     assert code == 0 and any(r["im"] == "PGA" for r in ok)
+    # the console in the field's units: PGA θ in g (SI in brackets), PGV in cm/s
+    pga = next(r for r in ok if r["im"] == "PGA")
+    line = next(ln for ln in con.lines if " PGA: θ = " in ln)
+    assert f"θ = {float(pga['theta']) / 9.80665:.4g} g ({float(pga['theta']):.4g} m/s²)" in line
     fr = read_fragility_model(tmp_path / "fragility.xml")  # the NRML carries exactly the converged fits
 
     def fid(im):
