@@ -203,7 +203,9 @@ def constrain_command(
     sources = sorted({c.source for c in cfg.branches if c.source})
     for wmsg in res.warnings:
         con.print("[bold yellow]WARNING:[/bold yellow] " + escape(wmsg), highlight=False)
-    page = write_report(res, cfg.rocks, out, cfg.name, notes, [str(config), *sources], cfg.given_mean, unc, cfg.draws)
+    page = write_report(
+        res, cfg.rocks, out, cfg.name, notes, [str(config), *sources], cfg.given_mean, unc, cfg.draws
+    )
     s = res.summary
     k = 0.01 if res.im == "PGV" else G
     u = "cm/s" if res.im == "PGV" else "g"

@@ -152,7 +152,8 @@ def _fig_contribution(rocks: list[RockInput], c: Constraint) -> str:
         col = f"C{i}"
         d0 = c.contribution(r.fragility)
         ax.plot(x, d0, color=col, lw=2, label=f"{r.id}, prior mean hazard")
-        ax.plot(x, c.contribution(r.fragility, True), color=col, lw=1.2, ls="--", label=f"{r.id}, constrained")
+        d1 = c.contribution(r.fragility, True)
+        ax.plot(x, d1, color=col, lw=1.2, ls="--", label=f"{r.id}, constrained")
         lo, hi = central_range(c, d0)
         if math.isfinite(lo):
             ax.axvspan(lo / k, hi / k, color=col, alpha=0.07)
@@ -334,10 +335,16 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
     # issue 24: a one-paragraph verdict on the first screen (text from pbr_xval.study.verdicts)
     from pbr_xval.study.verdicts import hazard_paragraph
 
-    verdict = hazard_paragraph(field_summary(s, c.im), c.im, fu, r, len(c.branch_names), len(rocks), c.joint_mode)
+    nb = len(c.branch_names)
+    verdict = hazard_paragraph(field_summary(s, c.im), c.im, fu, r, nb, len(rocks), c.joint_mode)
+    tr_head = ["rock", "lowest level: P_f", "P_s as computed / with the lowest segment continued below",
+               "highest level", "most the tail above can change −ln P_s"]  # fmt: skip
+    br_head = (["branch", "prior w", "posterior w"] + (["posterior w (fragility draws)"] if unc is not None else [])
+               + ["P(all survive)"] + [f"P_s {x}" for x in c.rock_ids])  # fmt: skip
+    jm = c.joint_mode
     body = f"""<h1>{html.escape(title)}: precarious rocks constrain the site hazard</h1>
 <p id="verdict" class="study-verdict" data-kind="hazard">{html.escape(verdict)}</p>
-<p>{len(c.branch_names)} hazard branches on {c.im}, {len(rocks)} rock(s), joint survival: <b>{c.joint_mode}</b>.
+<p>{nb} hazard branches on {c.im}, {len(rocks)} rock(s), joint survival: <b>{jm}</b>.
 Probability that all rocks survived under the prior hazard: <b>{s["prior_joint_survival"]:.3g}</b>.</p>
 {warn}
 <h2>Result: the IM at the rate of interest, the rate at a fixed IM</h2>
@@ -351,11 +358,9 @@ over the hazard branch (prior weights), the fragility draw and the exposure age;
 <p>Events below a curve's lowest level count as toppling nothing (P_s is then an upper bound); above its last
 level the tail is extrapolated ('powerlaw') or absent ('cut'). Worst branch per rock; refused above P_f = 0.01 at
 the lowest level, or, for a cut tail, above 0.01 in −ln P_s, unless allowed.</p>
-{_table(["rock", "lowest level: P_f", "P_s as computed / with the lowest segment continued below",
-         "highest level", "most the tail above can change −ln P_s"], tr_rows)}
+{_table(tr_head, tr_rows)}
 <h2>Branches</h2>
-{_table(["branch", "prior w", "posterior w"] + (["posterior w (fragility draws)"] if unc is not None else [])
-        + ["P(all survive)"] + [f"P_s {x}" for x in c.rock_ids], br_rows)}
+{_table(br_head, br_rows)}
 <h2>Assumptions</h2><ul>{li}</ul>
 <h2>Inputs</h2><ul>{src}</ul>
 <p>Tables (SI, units in the column names): <code>curves.csv</code>, <code>contribution.csv</code>, <code>branches.csv</code>,
