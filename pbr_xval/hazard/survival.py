@@ -293,6 +293,11 @@ def _field(x: float, im: str) -> str:
     return f"{x / oq_factor(im):.3g} {oq_unit(im)}"
 
 
+def _p3(p: float) -> str:
+    """A probability to 3 decimals, or 2 significant digits below 0.001."""
+    return f"{p:.3f}" if p >= 1e-3 or p == 0 else f"{p:.2g}"
+
+
 def truncation_message(checks: list[TruncationCheck], p_low_max: float, top_tol: float, im: str) -> str:
     """One line on the worst flagged check (and how many there are)."""
     low = [c for c in checks if c.low_flag]
@@ -303,8 +308,8 @@ def truncation_message(checks: list[TruncationCheck], p_low_max: float, top_tol:
         parts.append(
             f"hazard branch {c.branch!r} starts at {_field(c.x_low, im)} where rock {c.rock!r} already topples with "
             f"P_f = {c.pf_low:.2f} > {p_low_max:g} ({len(low)} of {len(checks)} branch × rock pairs): events below "
-            f"the curve are counted as toppling nothing, so P_s = {c.ps:.3f} is an upper bound (the lowest segment's "
-            f"power law continued below gives {c.ps_extended:.3f}; missing toppling rate ≈ {c.nu_below:.3g}/yr, "
+            f"the curve are counted as toppling nothing, so P_s = {_p3(c.ps)} is an upper bound (the lowest segment's "
+            f"power law continued below gives {_p3(c.ps_extended)}; missing toppling rate ≈ {c.nu_below:.3g}/yr, "
             f"× T̄ = {c.nu_below * c.age_mean:.3g} toppling events)"
         )
     if high:
