@@ -265,8 +265,13 @@ def _engines(results: Iterable[StudyResult]) -> dict[str, dict[str, Any]]:
                     s = slot(n)
                     if isinstance(info.get("versions"), Mapping):
                         s["versions"].update(info["versions"])
-                    if "settings" in info:
-                        s["settings"][r.title] = info["settings"]
+                    st = info.get("settings")
+                    if isinstance(st, Mapping) and st and all(isinstance(x, Mapping) for x in st.values()):
+                        # settings by case or by settings point (extremes, speed–accuracy trade)
+                        for k, x in st.items():
+                            s["settings"][f"{r.title}: {k}"] = x
+                    elif "settings" in info:
+                        s["settings"][r.title] = st
                     for k, v in info.items():
                         if k not in ("versions", "settings"):
                             s.setdefault("other", {})[k] = v
