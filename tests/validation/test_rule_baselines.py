@@ -44,6 +44,27 @@ def test_two_feature_rule_maximises_f1_not_accuracy() -> None:
     assert score(OBS, rule.predict({"pga": PGA, "pgv": pgv})).f1 == pytest.approx(10 / 13)
 
 
+def test_f1_ties_go_to_the_highest_accuracy() -> None:
+    # pga 1..8, topples at 3, 6, 8: a = 2.5 (TP 3, FP 3, FN 0) and a = 5.5 (TP 2, FP 1, FN 1) both
+    # give F1 2/3; accuracy 0.625 vs 0.75 decides (docs/validation.md: ties → accuracy)
+    pga = np.arange(1.0, 9.0)
+    obs = np.array([0, 0, 1, 0, 0, 1, 0, 1], bool)
+    assert fit_rule({"pga": pga}, obs, ["pga"]).thresholds == (5.5,)
+    pair = fit_rule({"pga": pga, "pgv": np.ones_like(pga)}, obs, ["pga", "pgv"])
+    assert pair.thresholds[0] == 5.5
+
+
+def test_scores_columns_and_rule_description() -> None:
+    """The columns of scores.csv (docs/validation.md) and the rule text of the report."""
+    s = score([1, 0, 1, 0], [1, 1, 0, 0])
+    assert list(s.to_dict()) == ["n", "tp", "fp", "fn", "tn", "accuracy", "precision", "recall", "f1"]
+    assert s.to_dict()["n"] == 4 and s.to_dict()["accuracy"] == 0.5 and s.to_dict()["precision"] == 0.5
+    from pbr_xval.validation.metrics import Rule
+
+    rule = Rule(("pga", "pgv"), (2.5, 0.31234))
+    assert rule.describe({"pga": "m/s²"}) == "pga ≥ 2.5 m/s² and pgv ≥ 0.3123"
+
+
 #: docs/validation.md, "Results": the rules' out-of-fold F1 (and confusion matrices) per specimen
 DOCUMENTED_RULES = {
     1: {"PGA rule": (0.648, (69, 68, 7, 52)), "PGV rule": (0.829, (68, 20, 8, 100)),
