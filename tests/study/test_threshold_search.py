@@ -81,6 +81,16 @@ def test_housner_search_result_is_pinned() -> None:
     assert tr.lo <= EXACT <= tr.hi  # the bracket holds the exact value
     assert res.minimum == pytest.approx(SEARCH_MIDPOINT, abs=1e-5)  # tighter than the 6e-5 a bug moves it
     assert abs(res.minimum / EXACT - 1) < 1e-3  # within rel_tol of the exact value
+    # `pbr-xval threshold --json` writes this dict: every key, and the figures above in it
+    d = res.to_dict()
+    assert list(d) == [
+        "param", "unit", "engine", "status", "message", "minimum", "tolerance", "rel_tol", "lo", "hi",
+        "lower_bound", "resolution", "bands", "transitions", "runs", "n_simulations", "settings",
+        "versions", "scenario_hash", "criterion", "wall_time", "max_tilt_rad",
+    ]  # fmt: skip
+    assert (d["engine"], d["minimum"], d["n_simulations"]) == ("housner", res.minimum, 13)
+    assert (d["lo"], d["hi"]) == (res.lo, res.hi) and len(d["runs"]) == len(res.runs)
+    assert d["bands"] == [b.__dict__ for b in res.bands()] and d["bands"]
 
 
 def _one_cosine(**kw):
