@@ -165,6 +165,65 @@ def test_killed_dask_sweep_leaves_no_process(tmp_path: Path) -> None:
     _sweep_and_resume(tmp_path, "dask", signal.SIGKILL)
 
 
+NAPPER = """
+import time
+from pathlib import Path
+
+
+def nap(seconds: float, marker: str) -> None:
+    Path(marker).touch()
+    time.sleep(seconds)
+"""
+
+# the other pools: the study workers (run_many: thresholds, histories, extremes, trade-off) and a
+# process pool with the initializer of the fragility-map pool (pbr_xval.study.fragility)
+DRIVER = """
+import concurrent.futures as cf, multiprocessing as mp, os, sys
+sys.path.insert(0, sys.argv[1])
+if __name__ == "__main__":
+    marks = [os.path.join(sys.argv[1], f"started{i}") for i in range(2)]
+    if sys.argv[2] == "run_many":
+        from pbr_xval.study.workers import CallTask, run_many
+        tasks = [CallTask("napper:nap", {"seconds": 60, "marker": m}, extra_sys_path=(sys.argv[1],)) for m in marks]
+        list(run_many(tasks, max_workers=2))
+    else:
+        from pbr_xval.lifeline import die_with_parent
+        from napper import nap
+        with cf.ProcessPoolExecutor(2, mp_context=mp.get_context("spawn"), initializer=die_with_parent,
+                                    initargs=(os.getpid(),)) as pool:
+            list(pool.map(nap, [60, 60], marks))
+"""
+
+
+@pytest.mark.parametrize("pool", ["run_many", "fragility_pool"])
+def test_killed_study_pools_leave_no_process(tmp_path: Path, pool: str) -> None:
+    (tmp_path / "napper.py").write_text(NAPPER)
+    driver = tmp_path / "driver.py"
+    driver.write_text(DRIVER)
+    proc = subprocess.Popen([sys.executable, str(driver), str(tmp_path), pool], start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while (
+            len(list(tmp_path.glob("started*"))) < 2 and proc.poll() is None and time.monotonic() < deadline
+        ):
+            time.sleep(0.02)
+        assert proc.poll() is None and len(list(tmp_path.glob("started*"))) == 2, "the workers did not start"
+        proc.kill()
+        proc.wait(10)
+        t_dead = time.monotonic()
+        left = _session(proc.pid)
+        while left and time.monotonic() - t_dead < GRACE_S:
+            time.sleep(0.05)
+            left = _session(proc.pid)
+    finally:
+        for line in _session(proc.pid):
+            os.kill(int(line.split()[0]), signal.SIGKILL)
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(10)
+    assert not left, f"{len(left)} process(es) outlived the killed parent by {GRACE_S} s:\n" + "\n".join(left)
+
+
 def _campaign(folder: Path) -> tuple[Path, list[int]]:
     """18 one-column records (m/s², dt 5 ms) for a 0.2 × 0.2 × 0.8 m block (uplift at 2.45 m/s²):
     well below uplift it stands, under a constant 6 or 8 m/s² held 1.5 s it lies down
