@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
@@ -90,6 +90,16 @@ def run(
     overwrite: Annotated[
         bool, typer.Option("--overwrite", help="replace an existing trajectory file (default: refuse)")
     ] = False,
+    member: Annotated[
+        int | None,
+        typer.Option(
+            help="run member I (0-based) of the scenario's [uncertainty] ensemble: its sampled values applied "
+            "(bit for bit the ensemble's run when --engine is the member's engine, see members.csv)"
+        ),
+    ] = None,
+    members: Annotated[
+        int | None, typer.Option(help="--member: the ensemble's size (a Latin hypercube depends on it)")
+    ] = None,
 ) -> None:
     """Simulate a scenario with one engine, write the trajectory and print a summary.
 
@@ -106,6 +116,9 @@ def run(
         eng = get_engine(engine)
     except EngineNotAvailable as exc:
         raise _fail(str(exc)) from None
+    member_info = None
+    if member is not None:
+        scn, member_info = _ensemble_member(scn, scenario, member, members, engine)
     try:
         settings = _parse_sets(engine_set)
         scenario_sets = _parse_sets(set_)
@@ -153,6 +166,8 @@ def run(
             traj = run_scene(scene, eng, full)
     except (EngineNotAvailable, EngineSettingsError, NotApplicable) as exc:
         raise _fail(str(exc)) from None
+    if member_info is not None:
+        traj.scene_info["ensemble_member"] = member_info
     traj.save_parquet(out_path)
     table = Table(title=f"{scn.name} — {engine}")
     table.add_column("quantity")
@@ -163,6 +178,31 @@ def run(
     console.print(f"trajectory written to {out_path}")
     if not traj.ok:
         raise _fail(f"run failed: {traj.message}", 1)
+
+
+def _ensemble_member(
+    scn: Any, path: Path, index: int, members: int | None, engine: str
+) -> tuple[Any, dict[str, Any]]:
+    """(member ``index``'s scenario, what the trajectory records about it) for ``run --member``."""
+    from pbr_xval.uncertainty import ensemble_spec, member_scenario
+
+    spec = ensemble_spec(scn)
+    if spec is None:
+        raise _fail(f"--member: {path} has no [uncertainty] table; expected one (docs/scenarios.md)")
+    n = int(members or spec.members)
+    if not 0 <= index < n:
+        raise _fail(f"--member {index}: expected 0 ≤ member < {n} (the ensemble's members)")
+    m = spec.member(index, members=n, engines=list(spec.engines) or [engine])
+    if m.engine != engine:
+        err.print(
+            f"note: member {index} was drawn for engine {m.engine!r}; running it on {engine!r} as asked",
+            soft_wrap=True,
+        )
+    info = {**m.to_dict(), "run_engine": engine, "base_scenario_hash": scn.content_hash()}
+    err.print(
+        escape(f"member {index}: values {json.dumps(m.values)} (seed {m.seed}, {m.sampling})"), soft_wrap=True
+    )
+    return member_scenario(scn, m, engine=engine), info
 
 
 @app.command()

@@ -150,3 +150,29 @@ def test_predict_input_errors(tmp_path: Path) -> None:
 def test_estimate_interval(n: int) -> None:
     e = estimate([True] * 2 + [False] * (n - 2))
     assert e.k == 2 and e.n == n and 0 < e.lo < e.p < e.hi < 1
+
+
+def test_run_member_matches_the_ensemble(tmp_path: Path) -> None:
+    """`pbr-xval run SCEN --engine E --member I` is member I's run, bit for bit."""
+    from pbr_xval.engine import Trajectory
+
+    p = housner_ensemble(tmp_path, members=8, seed=5)
+    scn = load(p)
+    spec = ensemble_spec(scn)
+    assert spec is not None
+    res = run_predict(scn, tmp_path / "out", spec=spec, executor="inline", progress=False)
+    out = tmp_path / "m4.parquet"
+    r = CliRunner().invoke(app, ["run", str(p), "--engine", "housner", "--member", "4", "--out", str(out)])
+    assert r.exit_code == 0, r.output
+    traj = Trajectory.load_parquet(out)
+    row = res.members.set_index("member").loc[4]
+    assert traj.scene_info["ensemble_member"]["member"] == 4
+    assert (
+        traj.scene_info["ensemble_member"]["values"]["excitation.amplitude"]
+        == row["value:excitation.amplitude"]
+    )
+    assert float(np.max(traj.tilt())) == row["peak_tilt_rad"] and bool(traj.toppled) == bool(row["toppled"])
+    bad = CliRunner().invoke(
+        app, ["run", str(p), "--engine", "housner", "--member", "8", "--out", str(tmp_path / "x.parquet")]
+    )
+    assert bad.exit_code == 2 and "--member 8" in bad.output
