@@ -53,7 +53,7 @@ __all__ = [
 ]
 
 #: reserved keys of ``[uncertainty]`` (everything else is a dotted scenario key with a distribution)
-RESERVED = ("members", "seed", "sampling", "engines", "engine_weights")
+RESERVED = ("members", "seed", "sampling", "engines", "engine_weights", "per_test")
 SAMPLINGS = ("sobol", "lhs", "random")
 #: distribution → (required parameters, optional parameters)
 DIST_PARAMS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -170,6 +170,7 @@ class EnsembleSpec:
     members: int = 16
     seed: int = 0
     sampling: str = "sobol"
+    per_test: bool = False
     _cache: dict[int, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -182,11 +183,23 @@ class EnsembleSpec:
             "members": self.members,
             "seed": self.seed,
             "sampling": self.sampling,
+            "per_test": self.per_test,
             "engines": list(self.engines),
             "engine_weights": None if self.engine_weights is None else list(self.engine_weights),
         }
         d["distributions"] = {x.key: x.normalised() for x in self.dists}
         return d
+
+    def for_test(self, test: str) -> EnsembleSpec:
+        """The spec whose members a campaign's test ``test`` runs: this one, or with ``per_test``
+        its own design, seeded by SHA-256(seed, test) (the field mode: fresh draws for every test)."""
+        if not self.per_test:
+            return self
+        import dataclasses
+        import hashlib
+
+        h = hashlib.sha256(f"{self.seed}\x00{test}".encode()).hexdigest()
+        return dataclasses.replace(self, seed=int(h[:15], 16), per_test=False, _cache={})
 
     # ---------------------------------------------------------------- design
     def design(self, n: int) -> np.ndarray:
@@ -343,6 +356,10 @@ def parse_uncertainty(table: Mapping[str, Any], where: str = "<scenario>") -> En
         if len(set(engines_raw)) != len(engines_raw):
             bad("engines", "an engine is listed twice", engines_raw)
         engines = list(engines_raw)
+    per_test = table.get("per_test", False)
+    if not isinstance(per_test, bool):
+        bad("per_test", "not true or false", per_test, "true (fresh draws for every test) or false")
+        per_test = False
     ew = table.get("engine_weights")
     weights: tuple[float, ...] | None = None
     if ew is not None:
@@ -402,7 +419,7 @@ def parse_uncertainty(table: Mapping[str, Any], where: str = "<scenario>") -> En
         raise UncertaintyError(lines)
     return EnsembleSpec(
         dists=tuple(dists), engines=tuple(engines), engine_weights=weights, members=int(members),
-        seed=int(seed), sampling=str(sampling),
+        seed=int(seed), sampling=str(sampling), per_test=per_test,
     )  # fmt: skip
 
 

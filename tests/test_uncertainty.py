@@ -235,3 +235,15 @@ def test_jeffreys_interval_against_scipy(k: int, n: int) -> None:
     assert lo == (0.0 if k == 0 else pytest.approx(b.ppf(0.025), abs=1e-12))
     assert hi == (1.0 if k == n else pytest.approx(b.ppf(0.975), abs=1e-12))
     assert jeffreys_interval(0, 0) == (0.0, 1.0)
+
+
+def test_per_test_designs() -> None:
+    spec = ensemble_spec(scn_with({"excitation.amplitude": U, "per_test": True}))
+    assert spec is not None and spec.per_test
+    a, b = spec.for_test("12"), spec.for_test("13")
+    assert a.seed != b.seed and a.sample()[0].values != b.sample()[0].values
+    assert spec.for_test("12").sample() == a.sample() and a.sample()[0].seed == a.seed
+    shared = ensemble_spec(scn_with({"excitation.amplitude": U}))
+    assert shared is not None and shared.for_test("12") is shared
+    with pytest.raises(ScenarioError, match="uncertainty.per_test"):
+        scn_with({"excitation.amplitude": U, "per_test": "yes"})

@@ -35,7 +35,7 @@ def build_ensemble_chunks(
     campaign: Any,
     motions: dict[str, Any],
     scn: Any,
-    members: list[Member],
+    members: list[Member] | dict[str, list[Member]],
     *,
     settings: dict[str, dict[str, Any]] | None = None,
     tail: float = 3.0,
@@ -43,7 +43,10 @@ def build_ensemble_chunks(
     block: int = 16,
     profile: str | None = None,
 ) -> list[Any]:
-    """One chunk per test × engine × block of ``block`` member indices."""
+    """One chunk per test × engine × block of ``block`` member indices.
+
+    ``members``: one list shared by every test, or test → its own members (``per_test``).
+    """
     from pbr_xval.catalog.predict import ensemble_rock
     from pbr_xval.catalog.tasks import ChunkSpec
     from pbr_xval.validation.runner import _safe
@@ -53,7 +56,7 @@ def build_ensemble_chunks(
     for t in campaign.tests:
         mf = motions[t.test]
         groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
-        for m in members:
+        for m in members[t.test] if isinstance(members, dict) else members:
             assert m.engine is not None
             prm = {k: v for k, v in m.to_dict().items() if k != "design_members" or m.sampling == "lhs"}
             groups.setdefault((m.engine, m.index // block), []).append(
@@ -103,7 +106,11 @@ def run_campaign_ensemble(
     from pbr_xval.catalog.sweep import run_chunks
 
     eng_list, _ = spec.mixture(engines)
-    mlist = spec.sample(members=members, engines=eng_list)
+    mlist: list[Member] | dict[str, list[Member]] = spec.sample(members=members, engines=eng_list)
+    if spec.per_test:  # field mode: every test draws its own members
+        mlist = {
+            t.test: spec.for_test(t.test).sample(members=members, engines=eng_list) for t in campaign.tests
+        }
     chunks = build_ensemble_chunks(
         campaign, motions, scn, mlist, settings=settings, tail=tail, output_dt=output_dt
     )
@@ -114,18 +121,17 @@ def run_campaign_ensemble(
     hashes = {c.content_hash() for c in chunks}
     rows = load_results(out / "store")
     rows = rows[rows["chunk_hash"].isin(hashes)]
-    by_index = {m.index: m for m in mlist}
     recs = []
     for r in rows.itertuples():
         prm = json.loads(r.motion_params)
-        m = by_index[int(prm["member"])]
         rec: dict[str, Any] = {
             "test": str(prm["test"]),
             "record": prm["motion"],
-            "member": m.index,
+            "member": int(prm["member"]),
             "engine": r.engine,
+            "seed": prm["seed"],
         }
-        rec.update({f"value:{k}": v for k, v in m.values.items()})
+        rec.update({f"value:{k}": v for k, v in prm["values"].items()})
         rec.update(
             toppled=bool(r.toppled), status=str(r.status), pga_m_s2=r.pga, pgv_m_s=r.pgv, mu=r.mu,
             peak_tilt_rad=r.peak_tilt, toppled_at_s=r.toppled_at, wall_s=r.wall_s,

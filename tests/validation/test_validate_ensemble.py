@@ -73,3 +73,44 @@ def test_validate_ensemble_needs_an_uncertainty_table(
     ]
     res = runner.invoke(app, args)
     assert res.exit_code == 2 and "no [uncertainty] table" in res.output
+
+
+def test_per_test_draws_fresh_members_for_every_test(
+    box_campaign_files: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    """Lab mode (default): member i has the same values in every test; field mode (per_test): fresh draws."""
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.uncertainty import ensemble_spec
+    from pbr_xval.validation.campaign import Baseline, load_campaign
+    from pbr_xval.validation.ensemble import build_ensemble_chunks
+    from pbr_xval.validation.runner import prepare_motions
+
+    csv, scn_path, _ = box_campaign_files
+    camp = load_campaign(csv, 1)
+    motions = prepare_motions(
+        camp, Baseline(detrend="none", highpass_hz=None, lowpass_hz=None, resample_hz=None), tmp_path / "m"
+    )
+    values = {}
+    for per_test in (False, True):
+        scn_path.write_text(
+            scn_path.read_text().split("[uncertainty]")[0]
+            + UNCERTAINTY
+            + f"per_test = {str(per_test).lower()}\n"
+        )
+        scn = load_scenario(scn_path)
+        spec = ensemble_spec(scn)
+        assert spec is not None and spec.per_test is per_test
+        members = {t.test: spec.for_test(t.test).sample() for t in camp.tests}
+        chunks = build_ensemble_chunks(camp, motions, scn, members)
+        by_test: dict[str, list] = {}
+        for c in chunks:
+            for m in c.motions:
+                by_test.setdefault(m["params"]["test"], []).append(
+                    (m["member"], m["values"]["contact.friction_static"])
+                )
+        values[per_test] = {t: sorted(v) for t, v in by_test.items()}
+    shared, fresh = values[False], values[True]
+    assert len({tuple(v) for v in shared.values()}) == 1  # the same 4 members in every test
+    assert len({tuple(v) for v in fresh.values()}) == 6  # every test its own draws
+    t0 = camp.tests[0].test
+    assert spec.for_test(t0).sample() == spec.for_test(t0).sample()  # still deterministic
