@@ -38,7 +38,7 @@ import tomli_w
 
 from pbr_xval.atomic import write_text_atomic
 
-__all__ = ["VARIANTS", "fragility_table", "main", "summarise"]
+__all__ = ["VARIANTS", "f1_range", "fragility_table", "main", "summarise"]
 
 #: variant name -> (scenario keys to set, engine settings to set as factors of the faithful dt)
 VARIANTS: dict[str, tuple[dict[str, Any], dict[str, float]]] = {
@@ -99,6 +99,25 @@ def _cli() -> str:
     """The ``pbr-xval`` script of this interpreter's environment."""
     exe = Path(sys.executable).parent / "pbr-xval"
     return str(exe) if exe.is_file() else (shutil.which("pbr-xval") or "pbr-xval")
+
+
+def f1_range(observed: dict[str, int], robust: dict[str, int], fragile: list[str]) -> tuple[float, float]:
+    """(lowest, highest) F1 over every outcome the fragile tests may take, robust ones fixed.
+
+    The tolerance of a CI guard derived from the fragile share: with the robust outcomes pinned,
+    F1 can only move as far as the fragile tests allow. Lowest: every fragile test predicted
+    wrong; highest: every one right (F1 = 2TP / (2TP + FP + FN) is monotone in each).
+    """
+    tp = sum(1 for t, o in robust.items() if o == 1 and observed[t] == 1)
+    fp = sum(1 for t, o in robust.items() if o == 1 and observed[t] == 0)
+    fn = sum(1 for t, o in robust.items() if o == 0 and observed[t] == 1)
+    pos = sum(1 for t in fragile if observed[t] == 1)
+    neg = len(fragile) - pos
+
+    def f1(a: int, b: int, c: int) -> float:
+        return 2 * a / (2 * a + b + c) if a else 0.0
+
+    return f1(tp, fp + neg, fn + pos), f1(tp + pos, fp, fn)
 
 
 def main(argv: list[str] | None = None) -> int:

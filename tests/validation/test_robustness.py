@@ -5,7 +5,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from pbr_xval.validation.robustness import fragility_table, main, summarise
+from pbr_xval.validation.robustness import f1_range, fragility_table, main, summarise
 
 
 def _oc(pred: list[int]) -> pd.DataFrame:
@@ -28,3 +28,12 @@ def test_variants_are_checked_before_anything_runs(capsys: pytest.CaptureFixture
     with pytest.raises(SystemExit):
         main(["x", "--scenario", "s.toml", "--engine", "housner", "--out", "o", "--variants", "base,wobble"])
     assert "wobble" in capsys.readouterr().err
+
+
+def test_f1_range_over_the_fragile_tests() -> None:
+    observed = {"1": 1, "2": 1, "3": 0, "4": 0, "5": 1}
+    robust = {"1": 1, "3": 0, "4": 1}  # TP 1, FP 1
+    lo, hi = f1_range(observed, robust, ["2", "5"])  # both topple in the lab
+    assert lo == pytest.approx(2 / (2 + 1 + 2))  # both missed: TP 1, FP 1, FN 2
+    assert hi == pytest.approx(6 / (6 + 1))  # both caught: TP 3, FP 1
+    assert f1_range(observed, robust, []) == (pytest.approx(2 / 3), pytest.approx(2 / 3))
