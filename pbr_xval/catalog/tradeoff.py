@@ -230,6 +230,7 @@ def run_tradeoff(
             "engine": s.engine, "settings": s.settings_text, "test": obs.index, "record": [rec_of[t] for t in obs.index],
             "observed": obs.to_numpy(), "predicted": r["toppled"].where(ok).map(lambda v: "" if v != v else int(bool(v))).to_numpy(),
             "status": r["status"].fillna("missing").to_numpy(), "wall_s": wall.to_numpy(),
+            "message": r["message"].fillna("").map(lambda m: str(m).splitlines()[0][:200] if m else "").to_numpy(),
             "pga_m_s2": r["pga"].to_numpy(float), "peak_tilt_rad": r["peak_tilt"].to_numpy(float),
         }))  # fmt: skip
     table = pd.DataFrame(summ)
@@ -379,6 +380,12 @@ def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict
     paths["png"] = out / "pareto.png"
     img = base64.b64encode(buf.getvalue()).decode()
     show = t.drop(columns=["settings_json"]).copy()
+    tl = res["tests"]
+    bad = tl[tl["status"] != "ok"].groupby(["engine", "settings"])["message"].agg(lambda m: sorted(set(m))[0])
+    fails = "".join(
+        f"<li>{html.escape(f'{e} {st}')}: {html.escape(str(m))}</li>" for (e, st), m in bad.items()
+    )
+    fails_html = f"<h2>Failed runs (first reason per setting)</h2><ul>{fails}</ul>" if fails else ""
     meta_rows = "".join(
         f"<tr><th>{html.escape(str(k))}</th><td>{html.escape(str(v))}</td></tr>" for k, v in meta.items()
     )
@@ -399,6 +406,7 @@ error of the mean paired difference of squared errors over the tests both ran; a
 <img alt="Pareto front, cost vs Brier" src="data:image/png;base64,{img}">
 <h2>Settings</h2>
 {show.to_html(index=False, escape=True, float_format=lambda v: f"{v:.4g}")}
+{fails_html}
 <h2>Printed lines</h2>
 <pre>{html.escape(chr(10).join(lines))}</pre>
 <p>Per test and setting: <code>tests.csv</code>; per setting: <code>settings.csv</code>; everything: <code>tradeoff.json</code>.</p>
