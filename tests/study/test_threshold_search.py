@@ -93,6 +93,21 @@ def test_housner_search_result_is_pinned() -> None:
     assert d["bands"] == [b.__dict__ for b in res.bands()] and d["bands"]
 
 
+def test_uplift_bound_only_for_a_parameter_that_scales_the_pga() -> None:
+    """The search starts at g·tan α only when the parameter scales the PGA linearly (the bound
+    would be wrong for a frequency); a motion without a stated PGA is sampled for it."""
+    import types
+
+    from pbr_xval.study.threshold import _pga, uplift_lower_bound
+
+    scn = load_scenario(HOUSNER)
+    assert uplift_lower_bound(scn, "excitation.amplitude") == pytest.approx(G / 3, rel=1e-9)
+    assert uplift_lower_bound(scn, "excitation.frequency") is None
+    motion = types.SimpleNamespace(acceleration=lambda t: -4.0 * np.sin(2 * np.pi * t / 2.0) ** 3)
+    scene = types.SimpleNamespace(excitation=types.SimpleNamespace(horizontal=motion, duration=2.0))
+    assert _pga(scene) == pytest.approx(4.0, rel=1e-6)
+
+
 def _one_cosine(**kw):
     return housner_scenario(
         duration=3.0, excitation={"type": "one_cosine", "amplitude": 12.0, "frequency": 2.0}, **kw
