@@ -315,6 +315,37 @@ def _vector(r: dict[str, Any], w: str, model: Any) -> Any:
         raise HazardInputError(f"{w}: {exc}") from None
 
 
+def _draws_csv(f: Path, w: str, frag: Any) -> dict[str, Any] | None:
+    """Members from a bootstrap-draws CSV of ``pbr-xval fragility --ensemble``
+    (``ensemble_fragility_<im>_draws.csv``: ``draw, theta_m_s2 | theta_m_s, beta``), or None when
+    the file has another layout."""
+    import csv
+
+    from pbr_xval.hazard.fragility import LognormalFragility
+
+    head = f.read_text(encoding="utf-8-sig").splitlines()[:1]
+    cols = [c.strip() for c in head[0].split(",")] if head else []
+    tcol = next((c for c in cols if c in ("theta_m_s2", "theta_m_s")), None)
+    if tcol is None or "beta" not in cols or "id" in cols:
+        return None
+    if (tcol == "theta_m_s") != (frag.im == "PGV"):
+        raise HazardInputError(
+            f"{w}: key 'ensemble': {f.name} has {tcol}; the rock's fragility is on {frag.im}"
+        )
+    out: dict[str, Any] = {}
+    for i, row in enumerate(csv.DictReader(f.read_text(encoding="utf-8-sig").splitlines()), start=2):
+        try:
+            th, be = float(row[tcol]), float(row["beta"])
+        except (TypeError, ValueError):
+            raise HazardInputError(f"{w}: key 'ensemble': {f} line {i}: θ or β not a number") from None
+        fid = f"{frag.id}#{row.get('draw', i - 2)}"
+        try:
+            out[fid] = LognormalFragility(frag.im, fid, theta=th, beta=be)
+        except HazardInputError as exc:
+            raise HazardInputError(f"{w}: key 'ensemble': {f} line {i}: {exc}") from None
+    return out
+
+
 def _draws(r: dict[str, Any], w: str, base: Path, frag: Any, unc: str | None, n: int, seed: int) -> Any:
     """The rock's fragility draws (or None: the fragility taken as known)."""
     from pbr_xval.hazard.fragility import LognormalFragility
@@ -328,6 +359,14 @@ def _draws(r: dict[str, Any], w: str, base: Path, frag: Any, unc: str | None, n:
         from pbr_xval.hazard.nrml import read_fragility_csv, read_fragility_model
 
         f = base / str(r["ensemble"])
+        if not f.is_file():
+            raise HazardInputError(f"{w}: key 'ensemble': {f}: file not found; expected member fragilities")
+        boot = None if f.suffix.lower() == ".xml" else _draws_csv(f, w, frag)
+        if boot is not None:
+            if len(boot) < 2:
+                raise HazardInputError(f"{w}: key 'ensemble': {len(boot)} draw in {f}; expected at least 2")
+            note = f"{len(boot)} bootstrap draws (θ, β) of pbr-xval fragility --ensemble ({f.name})"
+            return FragilityDraws(str(r["id"]), list(boot.values()), "bootstrap", note)
         mem = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
         bad = [m.id for m in mem.values() if m.im != frag.im]
         if bad:

@@ -46,14 +46,17 @@ def test_script_on_synthetic_outcomes(tmp_path):
     v.mkdir()
     (v / "outcomes.csv").write_text("\n".join(rows) + "\n")
     out = tmp_path / "rep"
-    assert _script().main([str(v), "--out", str(out)]) == 0
+    assert _script().main([str(v), "--out", str(out), "--bootstrap"]) == 0
     s = json.loads((out / "summary.json").read_text())
     fit = json.loads((out / "inputs" / "sp1_fit.json").read_text())["fragility_pga"]
     assert (
         fit["theta_ci_g"][0] < fit["theta_g"] < fit["theta_ci_g"][1] and abs(fit["theta_g"] / 0.4 - 1) < 0.3
     )
     assert s["headline_field_units"]["field_unit"] == "g" and s["n_branches"] == 3
-    assert s["fragility_uncertainty"]["rocks"]["SP1"]["method"] == "profile"
+    # the band from `pbr-xval fragility --ensemble`'s record-clustered bootstrap, read back as draws
+    assert s["fragility_uncertainty"]["rocks"]["SP1"]["method"] == "bootstrap"
+    assert s["fragility_uncertainty"]["rocks"]["SP1"]["n_draws"] == 400
+    assert "deterministic" in (out / "README.md").read_text()
     assert (out / "contribution.csv").is_file() and (out / "vector" / "index.html").is_file()
     page = (out / "index.html").read_text()
     assert "mean annual rate of exceeding PGA = 0.2 g" in page and "Contribution to each rock" in page
@@ -74,7 +77,8 @@ def test_committed_report_reproduces_from_its_inputs():
         su["ps_05"], rel=1e-9
     )
     # the figures quoted in docs/hazard.md
-    assert round(s["rock_survival"]["SP1"], 3) == 0.302 and round(su["ps"], 3) == 0.304
+    assert round(s["rock_survival"]["SP1"], 3) == 0.302 and round(su["ps"], 3) == 0.332
+    assert su["method"] == "bootstrap" and round(su["ps_05"], 3) == 0.118 and round(su["ps_95"], 3) == 0.567
     assert round(s["mean_im_before"] / G, 3) == 0.188 and round(s["mean_im_after"] / G, 3) == 0.145
     assert round(s["mean_rate_ratio_at_im"], 3) == 0.607
     branches = list(csv.DictReader((REPORT / "branches.csv").read_text().splitlines()))

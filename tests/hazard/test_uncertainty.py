@@ -118,3 +118,40 @@ def test_ensemble_members_are_draws_and_a_known_fragility_has_no_band():
 def _nu(f, k0):
     # Cornell: power law from x1 far below θ (P_f(x1) < 1e-5 here)
     return k0 * f.theta**-K * math.exp(K * K * f.beta**2 / 2)
+
+
+def test_bootstrap_draws_of_the_ensemble_fragility_command_are_read(tmp_path):
+    # `pbr-xval fragility RESULTS --ensemble` writes ensemble_fragility_pga_draws.csv (draw, theta_m_s2, beta)
+    from pbr_xval.hazard.config import load_config
+    from pbr_xval.hazard.ims import HazardInputError
+
+    x = np.geomspace(0.05, 100.0, 40)
+    (tmp_path / "h.csv").write_text(
+        "pga_m_s2,annual_rate\n" + "".join(f"{float(a)!r},{float(1e-4 * a**-2.5)!r}\n" for a in x)
+    )
+    (tmp_path / "f.csv").write_text("id,im,unit,theta,beta\nr,PGA,m/s²,3.0,0.4\n")
+    (tmp_path / "d.csv").write_text("draw,theta_m_s2,beta\n0,2.5,0.35\n1,3.0,0.4\n2,3.6,0.5\n")
+    rock = '[[rock]]\nid = "r"\nfragility = "f.csv"\nensemble = "d.csv"\nage = 3000.0\n'
+    p = tmp_path / "c.toml"
+    p.write_text('[hazard]\n[[hazard.branch]]\nfile = "h.csv"\n' + rock)
+    cfg = load_config(p)
+    d = cfg.draws["r"]
+    assert d.method == "bootstrap" and [m.theta for m in d.members] == [2.5, 3.0, 3.6]
+    assert [m.beta for m in d.members] == [0.35, 0.4, 0.5] and all(m.im == "PGA" for m in d.members)
+    c = constrain(cfg.branches, cfg.rocks)
+    u = propagate(c, cfg.branches, cfg.rocks, cfg.draws)
+    assert u.ps_mean[0] == pytest.approx(
+        np.mean([AGE_FIXED(3000.0).expect_exp(_nu1(m)) for m in d.members]), rel=1e-4
+    )
+    (tmp_path / "d.csv").write_text("draw,theta_m_s,beta\n0,0.3,0.4\n1,0.4,0.4\n")
+    with pytest.raises(HazardInputError, match=r"d\.csv has theta_m_s; the rock.s fragility is on PGA"):
+        load_config(p)
+
+
+def AGE_FIXED(t):
+    return Age(t, 0.0, "fixed")
+
+
+def _nu1(f):
+    # Cornell on λ = 1e-4 x^−2.5 from 0.05 m/s² (P_f there < 1e-9)
+    return 1e-4 * f.theta**-2.5 * math.exp(2.5**2 * f.beta**2 / 2)

@@ -93,29 +93,45 @@ def main(argv: list[str] | None = None) -> int:
     method = "profile"
     rock_extra = ""
     if a.members is not None or a.bootstrap:
-        from pbr_xval.catalog.fragility import fit_ensemble_fragility
+        # through `pbr-xval fragility … --ensemble` (pbr_xval.cli.fragility_ensemble_impl): the member runs'
+        # fit and its two-stage bootstrap (records, then each test's members); its draws file is the rock's
+        # `ensemble`. The deterministic outcomes enter as a one-member ensemble (a record-clustered
+        # bootstrap); the per-test table is written to a temporary folder, not next to the report.
+        import tempfile
 
-        if a.members is not None:
-            mem = [
-                r for r in csv.DictReader(a.members.read_text().splitlines()) if r.get("status", "ok") == "ok"
-            ]
-        else:  # the deterministic predictions as a one-member ensemble
-            mem = [{"pga_m_s2": str(x), "toppled": str(bool(t)), "test": str(i), "record": m}
-                   for i, (x, t, m) in enumerate(zip(pga, pred, _motions, strict=True))]  # fmt: skip
-        ens = fit_ensemble_fragility(
-            [float(r["pga_m_s2"]) for r in mem], [r["toppled"] in ("True", "1", "true") for r in mem],
-            [r["test"] for r in mem], [r["record"] for r in mem], im_name="PGA", n_boot=200, seed=0,
-        )  # fmt: skip
-        row.update({"theta": ens.theta, "beta": ens.beta, "theta_lo": ens.theta_ci[0], "theta_hi": ens.theta_ci[1],
-                    "beta_lo": ens.beta_ci[0], "beta_hi": ens.beta_ci[1], "n_runs": ens.n_runs,
-                    "n_toppled": ens.n_toppled,
-                    "source": f"SP1 {'ensemble' if a.members else a.engine}: {ens.n_tests} tests × "
-                              f"{ens.members_per_test:.0f} member(s), {len(ens.draws)} record-clustered bootstrap refits"})  # fmt: skip
-        write_fragility_csv(inp / "fragility" / "sp1_members.csv", [
-            {"id": f"SP1#{j}", "im": "PGA", "theta": t, "beta": b, "status": "ok", "source": "bootstrap refit"}
-            for j, (t, b) in enumerate(ens.draws)])  # fmt: skip
-        method = "ensemble members" if a.members else "record-clustered bootstrap"
-        rock_extra = 'ensemble = "fragility/sp1_members.csv"\n'
+        from pbr_xval.cli.fragility_ensemble_impl import ensemble_fragility_command
+
+        with tempfile.TemporaryDirectory() as td:
+            members = a.members
+            if members is None:
+                members = Path(td) / "members.csv"
+                lines = ["test,record,member,engine,pga_m_s2,pgv_m_s,toppled,status"]
+                lines += [f"{i},{m},0,{a.engine},{x!r},{x * r!r},{bool(t)},ok"
+                          for i, (x, r, t, m) in enumerate(zip(pga.tolist(), ratio.tolist(), pred, _motions, strict=True))]  # fmt: skip
+                members.write_text("\n".join(lines) + "\n")
+            if ensemble_fragility_command(members, n_boot=400, seed=0, out=Path(td) / "frag"):
+                print("ensemble fragility failed", file=sys.stderr)
+                return 1
+            fr = next(
+                iter(
+                    csv.DictReader(
+                        (Path(td) / "frag" / "ensemble_fragility_pga.csv").read_text().splitlines()
+                    )
+                )
+            )
+            (inp / "fragility" / "sp1_draws.csv").write_text(
+                (Path(td) / "frag" / "ensemble_fragility_pga_draws.csv").read_text()
+            )
+        n_mem = float(fr["members_per_test"])
+        row.update({"theta": float(fr["theta_m_s2"]), "beta": float(fr["beta"]), "theta_lo": float(fr["theta_lo_m_s2"]),
+                    "theta_hi": float(fr["theta_hi_m_s2"]), "beta_lo": float(fr["beta_lo"]), "beta_hi": float(fr["beta_hi"]),
+                    "n_runs": int(fr["n_runs"]), "n_toppled": int(fr["n_toppled"]),
+                    "source": f"SP1 {'ensemble' if a.members else a.engine}: {fr['n_tests']} tests × {n_mem:.0f} "
+                              f"member(s), {int(fr['bootstrap']) - int(fr['bootstrap_failed'])} two-stage bootstrap refits"})  # fmt: skip
+        method = (
+            "ensemble members' bootstrap" if a.members else "record-clustered bootstrap (one member per test)"
+        )
+        rock_extra = 'ensemble = "fragility/sp1_draws.csv"\n'
     write_fragility_csv(inp / "fragility" / "sp1.csv", [row])
     frag = LognormalFragility("PGA", "SP1", theta=row["theta"], beta=row["beta"])
     write_fragility_model(inp / "fragility" / "sp1.xml", [frag], "continuous", description=src)
@@ -153,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
         "vector": {"coef": [b0, b1, b2], "dispersion_at_fixed_ratio": 1 / b1,
                    "lab_median_pgv_pga_s": float(np.median(ratio))},
         "fragility_uncertainty": method, "engine": a.engine,
+        "band_theta_ci_g": [row["theta_lo"] / G, row["theta_hi"] / G], "band_beta_ci": [row["beta_lo"], row["beta_hi"]],
     }  # fmt: skip
     (inp / "sp1_fit.json").write_text(json.dumps(meta, indent=2) + "\n")
     print(f"SP1 PGA fragility ({a.engine}): θ = {fit.theta / G:.3f} g [{fit.theta_ci[0] / G:.3f}, "
@@ -169,7 +186,15 @@ def main(argv: list[str] | None = None) -> int:
         + (" --members …" if a.members else "")
         + "` from the "
         f"`pbr-xval validate … --specimen 1 --scenario examples/validation/sp1.toml --engine {a.engine}` outcomes "
-        f"({fit.n_runs} calibration tests). The fragility's band: {method}. `index.html`: the scalar PGA fragility; "
+        f"({fit.n_runs} calibration tests). "
+        + (
+            "The fragility is an ensemble's (`--members`). "
+            if a.members
+            else "The fragility is SP1's **deterministic** one (one engine, the committed scenario: the model's yes/no per "
+            "test), not an ensemble fragility: no SP1 ensemble run existed when this was written. "
+        )
+        + f"Its band: {method}, θ ∈ [{row['theta_lo'] / G:.3f}, {row['theta_hi'] / G:.3f}] g, β ∈ "
+        f"[{row['beta_lo']:.2f}, {row['beta_hi']:.2f}] (95 %). `index.html`: the scalar PGA fragility; "
         "`vector/index.html`: the vector fragility under the stated PGV/PGA model. Inputs in `inputs/` "
         "(fitted parameters only; the shake-table data stay in ../shared/data). See docs/hazard.md.\n"
     )
