@@ -122,6 +122,17 @@ def test_example_report_and_independent_recomputation(example):
     assert round(s["mean_im_before"] / G, 3) == 0.327 and round(s["mean_im_after"] / G, 3) == 0.257
     assert round(s["range_ratio"], 2) == 0.53 and round(s["prior_joint_survival"], 3) == 0.108
     assert s["mean_im_after"] < s["mean_im_before"] and s["range_ratio"] < 1
+    # the second headline and the fragility's uncertainty, as quoted in docs/hazard.md
+    assert round(s["mean_rate_after_at_im"], 7) == 5.76e-5 and round(s["mean_rate_ratio_at_im"], 3) == 0.576
+    u = s["fragility_uncertainty"]
+    ps = [u["rocks"][r] for r in ("rock_A", "rock_B", "rock_C")]
+    assert [round(r["ps"], 3) for r in ps] == [0.258, 0.371, 0.784]
+    assert [round(r["ps_05"], 3) for r in ps] == [0.202, 0.317, 0.746]
+    assert [round(r["ps_95"], 3) for r in ps] == [0.311, 0.420, 0.819]
+    sh = ps[0]["variance_shares"]
+    assert [round(100 * sh[k]) for k in ("hazard", "fragility", "age", "interaction")] == [91, 4, 4, 1]
+    assert [round(v / G, 3) for v in u["mean_im_after_05_95"]] == [0.253, 0.260]
+    assert [round(v / G, 3) for v in s["contribution_90"]["rock_A"]] == [0.166, 0.923]
     assert s["assumptions"] and any("Poisson" in a for a in s["assumptions"])
     page = (out / "index.html").read_text()
     assert (
