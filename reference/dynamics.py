@@ -79,6 +79,7 @@ Ground motion
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -109,6 +110,26 @@ BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 #: step would be rejected again — the step-back cascade. The engine then projects the rock
 #: back onto the band (``ReferenceEngine``: ``band_projections`` in the diagnostics).
 BAND_TOLERANCE = 1e-3
+
+
+def cull_tilts(nodes: np.ndarray, eps: float, n_ref: int = 64) -> np.ndarray:
+    """θ_i (N,) rad: below this tilt node i stays more than 3ε above one of the ``n_ref`` lowest
+    nodes (rest pose), whatever the orientation; −inf when no such bound exists.
+
+    With Δ = n_i − n_j and β its angle to the rest vertical, the height of i above j for a tilt
+    θ is u·Δ ≥ |Δ| cos(β + θ) (u: the pedestal normal in body axes, within θ of the rest
+    vertical), > 3ε while θ < arccos(3ε/|Δ|) − β; θ_i is the largest such bound over j.
+    """
+    nodes = np.asarray(nodes, dtype=float)
+    ref = nodes[np.argsort(nodes[:, 2], kind="stable")[:n_ref]]
+    d = nodes[:, None, :] - ref[None, :, :]
+    dn = np.sqrt((d * d).sum(axis=2))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beta = np.arccos(np.clip(d[..., 2] / dn, -1.0, 1.0))
+        lim = np.arccos(np.clip(3.0 * eps / dn, -1.0, 1.0)) - beta
+    lim[~(dn > 3.0 * eps)] = -np.inf
+    return lim.max(axis=1)
+
 
 _ZERO3 = np.zeros(3)
 _ZERO3.flags.writeable = False
@@ -382,6 +403,7 @@ class Stepper:
         self.mu_d = float(mu_d)
         self.e = float(restitution)
         self.eps = float(settings["epsilon"])
+        self._dt_hint = float(settings["timestep"])  # the candidates of the impact check
         self.iterations = int(settings["iterations"])
         self.itol = float(settings["iteration_tol"])
         self.method = str(settings["lcp_method"])
@@ -423,7 +445,21 @@ class Stepper:
             prm[kernel.P_PED_KIND] = 1.0
             prm[kernel.P_HX], prm[kernel.P_HY] = pedestal.half_extents[0], pedestal.half_extents[1]
         prm[kernel.P_REDUCE] = 1.0 if self.reduce else 0.0
+        prm[kernel.P_COS_CAND] = -2.0
         self._prm = prm
+        # candidate nodes (exact culling, see :meth:`candidates`): every node on a box pedestal
+        # (a node beside the box can hang below its top), else by tilt
+        self._all = np.arange(n, dtype=np.int64)
+        self._cull = pedestal.kind == "plane" and n > 8
+        self._cand_cache: dict[int, np.ndarray] = {}
+        self._cand_key: tuple[float, float] = (math.nan, 0.0)
+        self._cand_n = n
+        if self._cull:
+            lim = cull_tilts(body.nodes, self.eps)
+            self._cull_order = np.argsort(lim, kind="stable")
+            self._cull_lim = lim[self._cull_order].tolist()
+        # |ω| ≤ |l| / λ_min(I): the tilt margin of a step
+        self._inv_lmin = 1.0 / max(float(np.linalg.eigvalsh(body.inertia).min()), 1e-300)
         self._ext = np.zeros((7, 3))
         self._info = np.zeros(kernel.N_INFO)
         self.last_gaps = np.zeros(n)
@@ -460,6 +496,41 @@ class Stepper:
         self._kin_cache = (s, t, out, s.buf.copy())
         return out
 
+    def candidates(self, s: State, dt: float) -> np.ndarray:
+        """The nodes (ascending ids) that can come within ε of the pedestal during a step of
+        ``dt`` from ``s``; sets ``P_COS_CAND`` for the kernel.
+
+        Exact culling: node i stays more than 3ε above some node j — so out of the band while
+        no node is deeper than 2ε — at every orientation whose tilt (the angle between the
+        body's rest vertical and the pedestal normal) is below ``cull_tilts``'s θ_i. The
+        candidates are the nodes with θ_i ≤ the start tilt + 0.02 rad + 2|ω|Δt (|ω| ≤ |l|/λ_min);
+        the kernel checks the end of the step against every node when it ends beyond that tilt
+        or deeper than 2ε. A rock standing on a scanned base keeps a few tens of its 875 nodes.
+        """
+        if not self._cull:
+            return self._all
+        b = s.buf
+        c = min(1.0, max(-1.0, float(b[14])))  # R[2, 2]: cos of the tilt
+        lx, ly, lz = float(b[15]), float(b[16]), float(b[17])
+        lmag = math.sqrt(lx * lx + ly * ly + lz * lz)
+        key = (c, lmag)
+        prm = self._prm
+        if key != self._cand_key:
+            th = math.acos(c) + 0.02 + 2.0 * dt * lmag * self._inv_lmin
+            self._cand_key = key
+            if th >= math.pi:
+                self._cand_n = len(self._cull_lim)
+                prm[kernel.P_COS_CAND] = -2.0
+            else:
+                self._cand_n = bisect.bisect_right(self._cull_lim, th)
+                prm[kernel.P_COS_CAND] = math.cos(th)
+        n_c = self._cand_n
+        cand = self._cand_cache.get(n_c)
+        if cand is None:
+            cand = np.sort(self._cull_order[:n_c]).astype(np.int64)
+            self._cand_cache[n_c] = cand
+        return cand
+
     def impact_pending(self, s: State, t: float) -> bool:
         """True when an in-band node approaches faster than ``impact_velocity`` (eq. 3.5)."""
         d, vp, _ = self.ped.motion(t)
@@ -469,6 +540,7 @@ class Stepper:
                 s.buf,
                 self.body.inertia_inv,
                 self.body.nodes,
+                self.candidates(s, self._dt_hint),
                 d,
                 vp,
                 self.eps,
@@ -696,7 +768,16 @@ class Stepper:
     def _contacts(self, s: State, t: float, dt: float) -> _Contacts:
         _, gaps, vel, _ = self.node_kinematics(s, t)
         idx, slide, sdir, stab = kernel.contact_set(
-            gaps, vel, self.body.nodes, self.eps, self.v_sep, self.v_slip, self.mu_d, dt, self.reduce
+            gaps,
+            vel,
+            self.body.nodes,
+            self._all,
+            self.eps,
+            self.v_sep,
+            self.v_slip,
+            self.mu_d,
+            dt,
+            self.reduce,
         )
         return _Contacts(
             idx=idx,
@@ -738,6 +819,7 @@ class Stepper:
             out = np.empty(18)
             gaps = np.empty(self.body.nodes.shape[0])
             info = self._info
+            cand = self.candidates(s0, dt)
             t_lcp = time.perf_counter()
             code = kernel.step(
                 s0.buf,
@@ -745,6 +827,7 @@ class Stepper:
                 ext,
                 self.body.inertia_inv,
                 self.body.nodes,
+                cand,
                 self._active,
                 self._prev_force,
                 self._pred,

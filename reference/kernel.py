@@ -63,7 +63,10 @@ STEP_GENERAL = 2
 # parameter vector layout of :func:`step` (float64 array)
 P_MASS, P_MU_S, P_MU_D, P_EPS, P_ITER, P_ITOL, P_VSEP, P_VSLIP, P_ORTH, P_LREF = range(10)
 P_T0, P_DT, P_PED_KIND, P_HX, P_HY, P_REDUCE, P_NO_PEN = range(10, 17)
-N_PARAMS = 17
+#: cos of the largest tilt for which the candidate nodes ``cand`` of :func:`step` are exact
+#: (−2: every node is a candidate); see :meth:`dynamics.Stepper.candidates`
+P_COS_CAND = 17
+N_PARAMS = 18
 # info vector layout (float64 array) filled by :func:`step`
 I_ITS, I_CONV, I_SOLVES, I_FAST, I_CAYLEY, I_NCONT, I_GMIN = range(7)
 I_F1, I_TAU1, I_OMEGA = 7, 10, 13
@@ -672,14 +675,18 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
 
 # ----------------------------------------------------------------------------- one step
 @njit(cache=True)
-def _kinematics(x, v, R, lm, inertia_inv, nodes, d, vp, ped_kind, hx, hy):
-    """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω."""
+def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
+    """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω —
+    of the candidate nodes ``cand`` (the others: gap +inf, r and velocity left unset)."""
     n = nodes.shape[0]
-    r = _points_mt(nodes, R)
+    r = np.empty((n, 3))
     w = _omega(R, inertia_inv, lm)
-    gaps = np.empty(n)
+    gaps = np.full(n, np.inf)
     vel = np.empty((n, 3))
-    for i in range(n):
+    for c in range(cand.size):
+        i = cand[c]
+        for j in range(3):
+            r[i, j] = R[j, 0] * nodes[i, 0] + R[j, 1] * nodes[i, 1] + R[j, 2] * nodes[i, 2]
         px = x[0] + r[i, 0] - d[0]
         py = x[1] + r[i, 1] - d[1]
         gaps[i] = x[2] + r[i, 2] - d[2]
@@ -695,36 +702,38 @@ def _kinematics(x, v, R, lm, inertia_inv, nodes, d, vp, ped_kind, hx, hy):
 
 
 @njit(cache=True)
-def impact_pending(sv, inertia_inv, nodes, d, vp, eps, v_imp, ped_kind, hx, hy):
+def impact_pending(sv, inertia_inv, nodes, cand, d, vp, eps, v_imp, ped_kind, hx, hy):
     """True when an in-band node (gap ≤ ε) approaches faster than ``v_imp`` (eq. 3.5 trigger).
 
-    ``sv`` is the packed state (18,) = (x, v, R row-major, l)."""
+    ``sv`` is the packed state (18,) = (x, v, R row-major, l); ``cand`` the candidate nodes."""
     x = sv[0:3]
     v = sv[3:6]
     R = sv[6:15].reshape(3, 3)
     lm = sv[15:18]
-    _, gaps, vel, _ = _kinematics(x, v, R, lm, inertia_inv, nodes, d, vp, ped_kind, hx, hy)
-    for i in range(gaps.size):
+    _, gaps, vel, _ = _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy)
+    for c in range(cand.size):
+        i = cand[c]
         if gaps[i] <= eps and vel[i, 0] < -v_imp:
             return True
     return False
 
 
 @njit(cache=True)
-def contact_set(gaps, vel, nodes, eps, v_sep, v_slip, mu_d, dt, reduce):
-    """Contacts of a step (see :meth:`dynamics.Stepper._contacts`), support-hull reduced when
-    no contact slides.
+def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
+    """Contacts of a step (see :meth:`dynamics.Stepper._contacts`) among the candidate nodes
+    ``cand`` (ascending), support-hull reduced when no contact slides.
 
     Returns (idx (k,), slide (k,) bool, sdir (k, 3), stab (3k,))."""
-    n = gaps.size
     cnt = 0
-    for i in range(n):
+    for c in range(cand.size):
+        i = cand[c]
         if gaps[i] <= eps and vel[i, 0] <= v_sep:
             cnt += 1
     idx = np.empty(cnt, dtype=np.int64)
     cnt = 0
     any_slide = False
-    for i in range(n):
+    for c in range(cand.size):
+        i = cand[c]
         if gaps[i] <= eps and vel[i, 0] <= v_sep:
             idx[cnt] = i
             cnt += 1
@@ -813,7 +822,30 @@ def _forces(
 
 
 @njit(cache=True)
-def step(sv, prm, ext, inertia_inv, nodes, active, prev_force, pred, pred_idx, out_sv, out_gaps, info):
+def _end_gaps(x1, R1, d1, nodes, cand, full, ped_kind, hx, hy, eps, out_gaps):
+    """(smallest gap, nodes within ε) at the end of a step, over ``cand`` or every node."""
+    n = nodes.shape[0] if full else cand.size
+    gmin = np.inf
+    ncont = 0
+    for c in range(n):
+        i = c if full else cand[c]
+        rx = R1[0, 0] * nodes[i, 0] + R1[0, 1] * nodes[i, 1] + R1[0, 2] * nodes[i, 2]
+        ry = R1[1, 0] * nodes[i, 0] + R1[1, 1] * nodes[i, 1] + R1[1, 2] * nodes[i, 2]
+        rz = R1[2, 0] * nodes[i, 0] + R1[2, 1] * nodes[i, 1] + R1[2, 2] * nodes[i, 2]
+        px = x1[0] + rx - d1[0]
+        py = x1[1] + ry - d1[1]
+        g = x1[2] + rz - d1[2]
+        if ped_kind == 1 and (abs(px) > hx or abs(py) > hy):
+            g = np.inf
+        out_gaps[i] = g
+        gmin = min(gmin, g)
+        if g <= eps:
+            ncont += 1
+    return gmin, ncont
+
+
+@njit(cache=True)
+def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out_sv, out_gaps, info):
     """One constant-average-acceleration step t0 → t0 + Δt with direct iteration.
 
     Parameters
@@ -824,6 +856,10 @@ def step(sv, prm, ext, inertia_inv, nodes, active, prev_force, pred, pred_idx, o
         velocity at t0, pedestal acceleration at t0⁺ and t1⁻, pedestal displacement at t1.
     inertia_inv : (3, 3) inverse inertia about the COM, body frame, 1/(kg m²).
     nodes : (N, 3) body-frame contact nodes relative to the COM, m.
+    cand : (n,) int, ascending: the candidate nodes — every node that can be within ε of the
+        pedestal at a tilt up to arccos ``prm[P_COS_CAND]`` (the others stay more than 3ε above
+        the deepest node; :meth:`dynamics.Stepper.candidates`). The end-of-step check falls
+        back to every node when the step ends beyond that tilt or deeper than 2ε.
     active : (N,) int, per node status of the last full solve (read).
     prev_force : (N, 3) last contact force per node (written).
     pred : (9,) predictor memory (valid, t1, Δt, F0 (3), τ0 (3)), read and written.
@@ -849,9 +885,9 @@ def step(sv, prm, ext, inertia_inv, nodes, active, prev_force, pred, pred_idx, o
     l0 = sv[15:18].copy()
     a_load0, a_load1 = ext[0], ext[1]
     d0, vp0, ap0, ap1, d1 = ext[2], ext[3], ext[4], ext[5], ext[6]
-    _, gaps0, vel0, w0 = _kinematics(x0, v0, R0, l0, inertia_inv, nodes, d0, vp0, ped_kind, hx, hy)
+    _, gaps0, vel0, w0 = _kinematics(x0, v0, R0, l0, inertia_inv, nodes, cand, d0, vp0, ped_kind, hx, hy)
     idx, slide, sdir, stab = contact_set(
-        gaps0, vel0, nodes, prm[P_EPS], prm[P_VSEP], prm[P_VSLIP], prm[P_MU_D], dt, prm[P_REDUCE] > 0
+        gaps0, vel0, nodes, cand, prm[P_EPS], prm[P_VSEP], prm[P_VSLIP], prm[P_MU_D], dt, prm[P_REDUCE] > 0
     )
     k = idx.size
     mu_vec = np.full(k, prm[P_MU_S])
@@ -957,20 +993,12 @@ def step(sv, prm, ext, inertia_inv, nodes, active, prev_force, pred, pred_idx, o
     info[I_F1 : I_F1 + 3] = F1
     info[I_TAU1 : I_TAU1 + 3] = tau1
     info[I_OMEGA : I_OMEGA + 3] = _omega(R1, inertia_inv, l1)
-    # penetration check at the end of the step
-    r = _points_mt(nodes, R1)
-    gmin = np.inf
-    ncont = 0
-    for i in range(nodes.shape[0]):
-        px = x1[0] + r[i, 0] - d1[0]
-        py = x1[1] + r[i, 1] - d1[1]
-        g = x1[2] + r[i, 2] - d1[2]
-        if ped_kind == 1 and (abs(px) > hx or abs(py) > hy):
-            g = np.inf
-        out_gaps[i] = g
-        gmin = min(gmin, g)
-        if g <= prm[P_EPS]:
-            ncont += 1
+    # penetration check at the end of the step: over the candidates, or every node when the
+    # step ended beyond their tilt or deeper than 2ε (then a non-candidate could be in band)
+    full = R1[2, 2] < prm[P_COS_CAND] or cand.size == nodes.shape[0]
+    gmin, ncont = _end_gaps(x1, R1, d1, nodes, cand, full, ped_kind, hx, hy, prm[P_EPS], out_gaps)
+    if not full and gmin < -2.0 * prm[P_EPS]:
+        gmin, ncont = _end_gaps(x1, R1, d1, nodes, cand, True, ped_kind, hx, hy, prm[P_EPS], out_gaps)
     info[I_GMIN] = gmin
     info[I_NCONT] = ncont
     if gmin < -prm[P_EPS] and prm[P_NO_PEN] == 0:
