@@ -69,6 +69,14 @@ def validate(
     members: Annotated[
         int | None, typer.Option(help="--ensemble: members per test (default [uncertainty].members)")
     ] = None,
+    half_width: Annotated[
+        float | None,
+        typer.Option(
+            help="--ensemble, adaptive: members in batches until each test's Jeffreys 95 % half-width is at "
+            "most this, or its interval excludes 0.5 (decided), up to --members"
+        ),
+    ] = None,
+    batch: Annotated[int, typer.Option(help="--half-width: members added per batch")] = 4,
 ) -> None:
     """Run every test of a shake-table campaign on each engine; F1 and the empirical baselines; CSV + HTML."""
     from pbr_xval.cli.validate_impl import validate_command
@@ -78,7 +86,7 @@ def validate(
         limit=limit, folds=folds, highpass=highpass, lowpass=lowpass, detrend=detrend, resample=resample, tail=tail,
         workers=workers, chunk_size=chunk_size, baseline_source=baseline_source, sets=set_, console=console,
         transfer=transfer,
-        ensemble=ensemble, members=members,
+        ensemble=ensemble, members=members, half_width=half_width, batch=batch,
     )  # fmt: skip
     if code:
         raise typer.Exit(code)

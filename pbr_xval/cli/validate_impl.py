@@ -34,6 +34,8 @@ def validate_command(
     transfer: str | None = None,
     ensemble: bool = False,
     members: int | None = None,
+    half_width: float | None = None,
+    batch: int = 4,
 ) -> int:
     """Validate the inputs (campaign, scenario, engines) in full, run, score, write the report."""
     from rich.console import Console
@@ -116,6 +118,12 @@ def validate_command(
     ens_spec, engines = _ensemble_inputs(scn, scenario, engines, ensemble, members)
     if isinstance(ens_spec, str):
         return fail(ens_spec)
+    if half_width is not None and not ensemble:
+        return fail(f"--half-width {half_width}: applies to --ensemble only")
+    if half_width is not None and not (0 < half_width < 0.5):
+        return fail(f"--half-width {half_width}: expected a half-width of the P(topple) interval in (0, 0.5)")
+    if batch < 1:
+        return fail(f"--batch {batch}: expected at least 1 member per batch")
     for e in engines:
         try:
             get_engine(e)
@@ -176,6 +184,7 @@ def validate_command(
         ens_meta = run_ensemble(
             res, camp, motions, scn, ens_spec, out, members=members, engines=engines,
             settings={e: settings for e in engines}, tail=tail, workers=workers, progress=progress, console=err,
+            half_width=half_width, batch=batch,
         )  # fmt: skip
     meta = {
         "campaign": str(campaign),

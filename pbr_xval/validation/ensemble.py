@@ -16,6 +16,7 @@ engine, sampled values, outcome, PGA, PGV), the input of ``pbr-xval fragility --
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -100,8 +101,18 @@ def run_campaign_ensemble(
     executor: str = "local",
     progress: bool = True,
     console: Any = None,
+    half_width: float | None = None,
+    batch: int = 4,
 ) -> tuple[pd.DataFrame, Any]:
-    """Run every test × member (resuming); (one row per test × member, sweep summary)."""
+    """Run every test × member (resuming); (one row per test × member, sweep summary).
+
+    Adaptive (``half_width`` given): members are run in batches of ``batch`` (in the design's
+    order) and a test gets its next batch only while its P(topple) is undecided by the rule of
+    ``pbr-xval predict`` (:func:`pbr_xval.catalog.predict.stop_rule`): it stops once the Jeffreys
+    95 % interval's half-width is at most ``half_width`` or the interval lies entirely above or
+    below 0.5, or at ``members``. Members go where the outcome is uncertain; chunks are one
+    batch each, so a rerun with the same settings recomputes nothing.
+    """
     from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
 
@@ -111,13 +122,21 @@ def run_campaign_ensemble(
         mlist = {
             t.test: spec.for_test(t.test).sample(members=members, engines=eng_list) for t in campaign.tests
         }
-    chunks = build_ensemble_chunks(
-        campaign, motions, scn, mlist, settings=settings, tail=tail, output_dt=output_dt
-    )
-    summary = run_chunks(
-        chunks, out / "store", executor=executor, workers=workers, progress=progress, console=console,
-        description="validate --ensemble",
-    )  # fmt: skip
+    per_test = mlist if isinstance(mlist, dict) else {t.test: mlist for t in campaign.tests}
+    if half_width is None:
+        chunks = build_ensemble_chunks(
+            campaign, motions, scn, mlist, settings=settings, tail=tail, output_dt=output_dt
+        )
+        summary = run_chunks(
+            chunks, out / "store", executor=executor, workers=workers, progress=progress, console=console,
+            description="validate --ensemble",
+        )  # fmt: skip
+    else:
+        chunks, summary = _run_adaptive(
+            campaign, motions, scn, per_test, out, half_width=half_width, batch=batch, settings=settings,
+            tail=tail, output_dt=output_dt, workers=workers, executor=executor, progress=progress,
+            console=console,
+        )  # fmt: skip
     hashes = {c.content_hash() for c in chunks}
     rows = load_results(out / "store")
     rows = rows[rows["chunk_hash"].isin(hashes)]
@@ -141,6 +160,52 @@ def run_campaign_ensemble(
     if not df.empty:
         df = df.drop_duplicates(["test", "member"]).sort_values(["test", "member"]).reset_index(drop=True)
     return df, summary
+
+
+def _run_adaptive(
+    campaign: Any,
+    motions: dict[str, Any],
+    scn: Any,
+    per_test: dict[str, list[Member]],
+    out: Path,
+    *,
+    half_width: float,
+    batch: int,
+    **kw: Any,
+) -> tuple[list[Any], Any]:
+    """Batches of members for the tests still undecided; (every chunk run, summed summary)."""
+    from pbr_xval.catalog.predict import estimate, stop_rule
+    from pbr_xval.catalog.store import load_results
+    from pbr_xval.catalog.sweep import run_chunks
+
+    run_kw = {k: kw.pop(k) for k in ("executor", "workers", "progress", "console")}
+    n_max = max((len(v) for v in per_test.values()), default=0)
+    active = [t for t in campaign.tests]
+    all_chunks: list[Any] = []
+    done = skipped = failed = 0
+    summary: Any = None
+    for start in range(0, n_max, batch):
+        if not active:
+            break
+        sub = campaign.select(tests=[t.test for t in active])
+        batch_members = {t.test: per_test[t.test][start : start + batch] for t in active}
+        chunks = build_ensemble_chunks(sub, motions, scn, batch_members, block=batch, **kw)
+        summary = run_chunks(
+            chunks, out / "store", description=f"validate --ensemble (members {start}–{start + batch - 1}, "
+            f"{len(active)} undecided tests)", **run_kw,
+        )  # fmt: skip
+        done, skipped, failed = done + summary.done, skipped + summary.skipped, failed + summary.failed
+        all_chunks += chunks
+        rows = load_results(out / "store")
+        rows = rows[rows["chunk_hash"].isin({c.content_hash() for c in all_chunks})]
+        tests = [json.loads(m)["test"] for m in rows["motion_params"]]
+        outcome = rows.assign(test=[str(t) for t in tests])
+        outcome = outcome[outcome["status"] == "ok"]
+        by_test = outcome.groupby("test")["toppled"].apply(lambda x: [bool(v) for v in x]).to_dict()
+        active = [t for t in active if stop_rule(estimate(by_test.get(t.test, [])), half_width) is None]
+    if summary is not None:
+        summary = dataclasses.replace(summary, done=done, skipped=skipped, failed=failed)
+    return all_chunks, summary
 
 
 def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -211,9 +276,12 @@ def run_ensemble(
     executor: str = "local",
     progress: bool = True,
     console: Any = None,
+    half_width: float | None = None,
+    batch: int = 4,
 ) -> dict[str, Any]:
     """Run the ensemble of every test, add the ``ensemble`` model to ``res``, write
-    ``ensemble_members.csv``; returns what the report records about it."""
+    ``ensemble_members.csv``; returns what the report records about it (``half_width``: the
+    adaptive mode of :func:`run_campaign_ensemble`)."""
     import time
 
     from pbr_xval.atomic import write_text_atomic
@@ -221,15 +289,24 @@ def run_ensemble(
     t0 = time.perf_counter()
     df, summary = run_campaign_ensemble(
         campaign, motions, scn, spec, out, members=members, engines=engines, settings=settings, tail=tail,
-        workers=workers, executor=executor, progress=progress, console=console,
+        workers=workers, executor=executor, progress=progress, console=console, half_width=half_width,
+        batch=batch,
     )  # fmt: skip
     tests = [t.test for t in campaign.tests]
     p, n_ok, n_bad = ensemble_p(df, tests)
     n = int(members or spec.members)
     eng_list, weights = spec.mixture(engines)
+    how = (
+        f"{n} members"
+        if half_width is None
+        else (
+            f"up to {n} members, adaptive: batches of {batch} until the Jeffreys 95 % half-width ≤ {half_width:g} "
+            f"or the interval excludes 0.5; mean {float(np.mean(n_ok)):.1f} members per test"
+        )
+    )
     add_ensemble_model(
         res, p, n_ok,
-        evaluated_on=f"all tests (no fitting): share of {n} members toppled ({spec.sampling}, seed {spec.seed})",
+        evaluated_on=f"all tests (no fitting): share of {how} toppled ({spec.sampling}, seed {spec.seed})",
     )  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "ensemble_members.csv", df.to_csv(index=False), hidden=True)
@@ -241,4 +318,6 @@ def run_ensemble(
         "ensemble_failed_runs": int(n_bad.sum()) + int(summary.failed),
         "ensemble_chunks_run_skipped_failed": f"{summary.done}/{summary.skipped}/{summary.failed}",
         "ensemble_wall_s": round(time.perf_counter() - t0, 1),
+        "ensemble_adaptive": None if half_width is None else {"half_width": half_width, "batch": batch},
+        "ensemble_member_runs": int(n_ok.sum() + n_bad.sum()),
     }

@@ -114,3 +114,25 @@ def test_per_test_draws_fresh_members_for_every_test(
     assert len({tuple(v) for v in fresh.values()}) == 6  # every test its own draws
     t0 = camp.tests[0].test
     assert spec.for_test(t0).sample() == spec.for_test(t0).sample()  # still deterministic
+
+
+def test_adaptive_ensemble_stops_each_test_once_decided(
+    box_campaign_files: tuple[Path, Path, list[int]], tmp_path: Path
+) -> None:
+    """--half-width: batches of 2; every member of every test agrees, so the Jeffreys interval
+    excludes 0.5 after 4 members (k = 0: [0, 0.445]; k = 4: [0.555, 1]) and no test gets more of
+    the 8 allowed; after 2 members it does not yet (k = 0: [0, 0.66])."""
+    csv, scn, observed = box_campaign_files
+    scn.write_text(scn.read_text() + UNCERTAINTY.replace("members = 4", "members = 8"))
+    out = tmp_path / "adaptive"
+    args = ["validate", str(csv), "--specimen", "1", "--scenario", str(scn), "--ensemble", "--out", str(out),
+            "--folds", "3", "--tail", "2", "--workers", "1", "--half-width", "0.05", "--batch", "2", *RAW]  # fmt: skip
+    res = runner.invoke(app, args)
+    assert res.exit_code == 0, res.output
+    oc = pd.read_csv(out / "outcomes.csv", dtype={"test": str})
+    assert oc["p_ensemble"].tolist() == [float(o) for o in observed]
+    assert oc["members_ensemble"].tolist() == [4] * 6
+    doc = json.loads((out / "validation.json").read_text())
+    assert doc["ensemble_adaptive"] == {"half_width": 0.05, "batch": 2} and doc["ensemble_member_runs"] == 24
+    bad = runner.invoke(app, [*args[:-10], "--half-width", "0.7"])
+    assert bad.exit_code == 2 and "--half-width 0.7" in bad.output
