@@ -280,24 +280,32 @@ def _figure(res: dict[str, Any], title: str) -> Any:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import ScalarFormatter
 
     t = res["table"]
-    fig, ax = plt.subplots(figsize=(8.0, 5.2))
+    fig, ax = plt.subplots(figsize=(8.4, 5.6))
     markers = {"mujoco": "o", "pybullet": "s", "dart": "^", "reference": "D", "housner": "v"}
+    best = t[t["best"]] if "best" in t else t.iloc[:0]
+    if len(best):
+        ax.axhline(float(best["brier"].iloc[0]), color="C3", lw=0.8, ls=":", label="best Brier")
     for j, (eng, g) in enumerate(t.groupby("engine", sort=False)):
-        ax.scatter(
-            g["cost_s_per_test"],
-            g["brier"],
-            marker=markers.get(str(eng), "P"),
-            s=46,
-            color=f"C{j}",
-            label=str(eng),
-            zorder=3,
-        )
+        g = g[g["cost_s_per_test"].notna() & g["brier"].notna()]
+        # the bar reaches down by the margin (k SE of the paired difference to the best): a setting
+        # whose bar reaches the best Brier line is within the margin
+        ax.errorbar(
+            g["cost_s_per_test"], g["brier"], yerr=[g["margin"].fillna(0.0), np.zeros(len(g))], fmt="none",
+            ecolor=f"C{j}", elinewidth=0.8, capsize=2, alpha=0.7,
+        )  # fmt: skip
+        ax.scatter(g["cost_s_per_test"], g["brier"], marker=markers.get(str(eng), "P"), s=46, color=f"C{j}",
+                   label=str(eng), zorder=3)  # fmt: skip
+        dy = 4 if j % 2 else -10
         for r in g.itertuples():
-            short = r.settings.replace("profile=", "").replace("timestep=", "dt=").replace("collision=", "")
+            short = (
+                r.settings if t["profile"].nunique() > 1 else r.settings.replace(f"profile={r.profile},", "")
+            )
+            short = short.replace("profile=", "").replace("timestep=", "dt=").replace("collision=", "")
             ax.annotate(
-                short, (r.cost_s_per_test, r.brier), fontsize=7, xytext=(4, 3), textcoords="offset points"
+                short, (r.cost_s_per_test, r.brier), fontsize=7, xytext=(5, dy), textcoords="offset points"
             )
     f = t[t["pareto"]].sort_values("cost_s_per_test")
     ax.step(
@@ -323,20 +331,17 @@ def _figure(res: dict[str, Any], title: str) -> Any:
             label="recommended",
             zorder=4,
         )
-        b = t[t["best"]].iloc[0]
-        ax.axhspan(
-            b.brier,
-            b.brier + r.margin,
-            color="C3",
-            alpha=0.08,
-            label=f"best Brier + {res['k_se']:g} SE (paired)",
-        )
     c = t["cost_s_per_test"].to_numpy(float)
     if np.all(c[np.isfinite(c)] > 0) and np.nanmax(c) > 4 * np.nanmin(c):
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(ScalarFormatter())
+        ax.tick_params(axis="x", which="minor", labelsize=7)
     ax.set_xlabel("cost: engine wall time per test, s")
     ax.set_ylabel("Brier score (0/1 predictions: error rate), dimensionless")
-    ax.set_title(title, fontsize=10)
+    ax.set_title(
+        title + f"\nbars: {res['k_se']:g} SE of the paired Brier difference to the best", fontsize=10
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
