@@ -149,3 +149,19 @@ def test_choose_campaign_bad_input(tmp_path, capsys):
     assert choose_campaign_command(csv, specimen=1, scenario=scn, collisions="sphere") == 2
     assert choose_campaign_command(csv, specimen=1, scenario=scn, tests="99") == 2
     assert choose_campaign_command(csv, specimen=1, scenario=scn, engines=["nope"]) == 2
+
+
+def test_choose_cli_wiring(tmp_path):
+    """The typer command: --campaign routes to the trade, a CATALOG to the budget mode, never both."""
+    from typer.testing import CliRunner
+
+    from pbr_xval.cli import app
+
+    csv = _campaign(tmp_path / "camp")
+    run = CliRunner().invoke
+    r = run(app, ["choose", "--campaign", str(csv), "--specimen", "1"])
+    assert r.exit_code == 2 and "--scenario is required" in r.output
+    r = run(app, ["choose", str(tmp_path / "c.toml"), "--campaign", str(csv)])
+    assert r.exit_code == 2 and "not both" in r.output
+    r = run(app, ["choose"])
+    assert r.exit_code == 2 and "give a CATALOG" in r.output
