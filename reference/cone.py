@@ -22,9 +22,11 @@ with inelastic collisions and Coulomb friction", IJNME 1996 (pyramid LCP).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from pbr_xval.reference.pivoting import lemke
 
@@ -191,6 +193,97 @@ def _disc_local_solve(lam: np.ndarray, Q: np.ndarray, c: np.ndarray, radius: flo
     ft = -(ct / (lam + g))
     ft *= radius / float(np.hypot(ft[0], ft[1]))
     return Q @ ft
+
+
+@njit(cache=True)
+def _disc_local_nb(lam0, lam1, Q, c0, c1, radius):
+    """:func:`_disc_local_solve` compiled, on scalars: (f_t0, f_t1)."""
+    if radius <= 0.0:
+        return 0.0, 0.0
+    ct0 = Q[0, 0] * c0 + Q[1, 0] * c1
+    ct1 = Q[0, 1] * c0 + Q[1, 1] * c1
+    c_norm = math.hypot(ct0, ct1)
+    if c_norm == 0.0:
+        return 0.0, 0.0
+    lam_max = max(lam1, 1e-300)
+    if lam0 > 1e-14 * lam_max:
+        f0 = -(ct0 / lam0)
+        f1 = -(ct1 / lam1)
+        if math.hypot(f0, f1) <= radius:
+            return Q[0, 0] * f0 + Q[0, 1] * f1, Q[1, 0] * f0 + Q[1, 1] * f1
+    lo, hi = 0.0, c_norm / radius
+    g = 0.0 if lam0 > 1e-14 * lam_max else 0.5 * hi
+    for _ in range(100):
+        d0 = lam0 + g
+        d1 = lam1 + g
+        fk0 = ct0 / d0
+        fk1 = ct1 / d1
+        nf = math.hypot(fk0, fk1)
+        phi = 1.0 / nf - 1.0 / radius
+        if phi < 0.0:
+            lo = g
+        else:
+            hi = g
+        if abs(phi) <= 1e-15 / radius or hi - lo <= 1e-15 * hi:
+            break
+        dphi = (ct0 * ct0 / d0**3 + ct1 * ct1 / d1**3) / nf**3
+        g_new = g - phi / dphi if dphi > 0 else 0.5 * (lo + hi)
+        if not (lo < g_new < hi):
+            g_new = 0.5 * (lo + hi)
+        g = g_new
+    f0 = -(ct0 / (lam0 + g))
+    f1 = -(ct1 / (lam1 + g))
+    sc = radius / math.hypot(f0, f1)
+    f0 *= sc
+    f1 *= sc
+    return Q[0, 0] * f0 + Q[0, 1] * f1, Q[1, 0] * f0 + Q[1, 1] * f1
+
+
+@njit(cache=True)
+def _gs_sweeps(A, f, a, diag_n, active, lam, Q, mu, it0, it1, tol, force_scale):
+    """Sweeps it0 … it1 of :func:`solve_friction_cone` (no polish or restart among them),
+    compiled; ``f`` and ``a`` are updated in place. Returns (last sweep, converged)."""
+    k = diag_n.size
+    n = A.shape[0]
+    it = it0
+    for it in range(it0, it1 + 1):
+        max_change = 0.0
+        for i in range(k):
+            rn = 3 * i
+            if not active[i]:
+                if f[rn] != 0.0 or f[rn + 1] != 0.0 or f[rn + 2] != 0.0:
+                    for r in range(n):
+                        a[r] -= A[r, rn] * f[rn] + A[r, rn + 1] * f[rn + 1] + A[r, rn + 2] * f[rn + 2]
+                    f[rn] = 0.0
+                    f[rn + 1] = 0.0
+                    f[rn + 2] = 0.0
+                continue
+            fn_new = max(0.0, f[rn] - a[rn] / diag_n[i])
+            dfn = fn_new - f[rn]
+            if dfn != 0.0:
+                for r in range(n):
+                    a[r] += A[r, rn] * dfn
+                f[rn] = fn_new
+            o1 = f[rn + 1]
+            o2 = f[rn + 2]
+            c0 = a[rn + 1] - (A[rn + 1, rn + 1] * o1 + A[rn + 1, rn + 2] * o2)
+            c1 = a[rn + 2] - (A[rn + 2, rn + 1] * o1 + A[rn + 2, rn + 2] * o2)
+            n1, n2 = _disc_local_nb(lam[i, 0], lam[i, 1], Q[i], c0, c1, mu[i] * fn_new)
+            d1 = n1 - o1
+            d2 = n2 - o2
+            if d1 != 0.0 or d2 != 0.0:
+                for r in range(n):
+                    a[r] += A[r, rn + 1] * d1 + A[r, rn + 2] * d2
+                f[rn + 1] = n1
+                f[rn + 2] = n2
+            max_change = max(max_change, abs(dfn), abs(d1), abs(d2))
+        f_scale = force_scale
+        for j in range(n):
+            f_scale = max(f_scale, abs(f[j]))
+        f_scale = max(f_scale, 1e-300)
+        if max_change <= tol * f_scale:
+            return it, True
+    return it, False
 
 
 def _friction_merit(f: np.ndarray, a: np.ndarray, mu: np.ndarray, fs: float, acs: float) -> float:
@@ -388,7 +481,13 @@ def solve_friction_cone(
     converged = False
     it = 0
     method = "pgs_cone"
-    for it in range(1, max_iter + 1):
+    lam_arr = np.array(eig_lam, dtype=float).reshape(k, 2)
+    q_arr = np.ascontiguousarray(np.array(eig_Q, dtype=float).reshape(k, 2, 2))
+    A_c = np.ascontiguousarray(A)
+    while it < max_iter:
+        # sweep it + 1 after its restart or polish, then the
+        # compiled sweeps up to the next restart or polish
+        it += 1
         if restart_after is not None and it == restart_after + 1:
             pyr = solve_friction_pyramid(A, b, mu_arr, n_facets=16)
             if pyr.converged:
@@ -404,30 +503,15 @@ def solve_friction_cone(
                 f, a, mu_arr, fs, acc_scale
             ):
                 f, a = cand, a_c
-        max_change = 0.0
-        for i in range(k):
-            rn = 3 * i
-            if not active[i]:
-                if np.any(f[rn : rn + 3] != 0.0):
-                    a -= A[:, rn : rn + 3] @ f[rn : rn + 3]
-                    f[rn : rn + 3] = 0.0
-                continue
-            fn_new = max(0.0, f[rn] - a[rn] / diag_n[i])
-            dfn = fn_new - f[rn]
-            if dfn != 0.0:
-                a += A[:, rn] * dfn
-                f[rn] = fn_new
-            ft_old = f[rn + 1 : rn + 3].copy()
-            c = a[rn + 1 : rn + 3] - Att[i] @ ft_old
-            ft_new = _disc_local_solve(eig_lam[i], eig_Q[i], c, mu_arr[i] * fn_new)
-            dft = ft_new - ft_old
-            if np.any(dft != 0.0):
-                a += A[:, rn + 1 : rn + 3] @ dft
-                f[rn + 1 : rn + 3] = ft_new
-            max_change = max(max_change, abs(dfn), float(np.max(np.abs(dft))))
-        f_scale = max(float(np.max(np.abs(f))), force_scale, 1e-300)
-        if max_change <= tol * f_scale:
-            converged = True
+        end = min(max_iter, (it // polish_every + 1) * polish_every - 1)
+        if restart_after is not None and restart_after + 1 > it:
+            end = min(end, restart_after)
+        f = np.ascontiguousarray(f, dtype=float)
+        a = np.ascontiguousarray(a, dtype=float)
+        it, converged = _gs_sweeps(
+            A_c, f, a, diag_n, active, lam_arr, q_arr, mu_arr, it, end, float(tol), float(force_scale)
+        )
+        if converged:
             break
     a = A @ f + b
     return FrictionResult(
