@@ -386,37 +386,48 @@ def _azimuth(r: StudyResult) -> StudyVerdict:
     return sv
 
 
-def _regime_words(d: DirectionAgreement, rows: Mapping[tuple[str, float], Any]) -> str:
-    """What the outliers' rocks did at their levels, where it differs from the agreeing engines'."""
+#: slip below this (m) is contact creep, not sliding, in the words of a disagreement
+SLIP_WORTH_SAYING_M = 1e-3
 
-    def what(e: str) -> str:
+
+def _regime_words(d: DirectionAgreement, rows: Mapping[tuple[str, float], Any]) -> str:
+    """What the outliers' rocks did just above their levels, where it differs from the agreeing
+    engines': airborne (jumped), slid ≥ 1 mm, the number of impacts before toppling."""
+
+    def feats(e: str) -> dict[str, Any] | None:
         r = rows.get((e, d.phi))
         if r is None:
-            return ""
+            return None
         reg = str(r.get("regime_above") or "")
-        imp = r.get("impacts_above")
-        bits = []
-        if reg and reg != "nan":
-            bits.append(reg)
-        if imp is not None and _f(imp) is not None and int(imp) >= 0:
-            bits.append(f"{int(imp)} impact{'s' if int(imp) != 1 else ''} before toppling")
-        return ", ".join(bits)
+        m_air = re.search(r"jumped \(([\d.e+-]+) s airborne\)", reg)
+        m_slid = re.search(r"slid ([\d.e+-]+) m", reg)
+        slid = float(m_slid.group(1)) if m_slid else 0.0
+        imp = _f(r.get("impacts_above"))
+        return {
+            "air": float(m_air.group(1)) if m_air else None,
+            "slid": slid if slid >= SLIP_WORTH_SAYING_M else None,
+            "impacts": int(imp) if imp is not None and imp >= 0 else None,
+        }
 
-    outl = {e: what(e) for e in d.outliers}
-    agree = {e: what(e) for e in d.agreeing}
-    if not any(outl.values()):
+    out_f = {e: feats(e) for e in d.outliers}
+    ref_f = [f for e in d.agreeing if (f := feats(e)) is not None]
+    if not d.agreeing or not ref_f:
         return ""
-    agree_set = set(agree.values())
-    every = set(outl.values()) | agree_set
-    if len(every) == 1:
-        return f"just above their levels every engine's rock {next(iter(every)) or 'toppled'}"
-    words = [f"{e} {v}" for e, v in outl.items() if v]
-    if agree:
-        common = (
-            next(iter(agree_set)) if len(agree_set) == 1 else "; ".join(f"{e} {v}" for e, v in agree.items())
-        )
-        words.append(f"{'the others' if len(agree_set) == 1 else ''} {common}".strip())
-    return "just above each level: " + "; ".join(words)
+    words = []
+    for e, f in out_f.items():
+        if f is None:
+            continue
+        bits = []
+        if f["air"] is not None and all(g["air"] is None for g in ref_f):
+            bits.append(f"its rock left the pedestal ({f['air']:.2g} s airborne), the others' did not")
+        if f["slid"] is not None and all(g["slid"] is None for g in ref_f):
+            bits.append(f"it slid {1e3 * f['slid']:.2g} mm, the others < 1 mm")
+        imps = {g["impacts"] for g in ref_f}
+        if f["impacts"] is not None and len(imps) == 1 and f["impacts"] not in imps:
+            bits.append(f"{f['impacts']} impacts before toppling vs {next(iter(imps))}")
+        if bits:
+            words.append(f"{e}: " + ", ".join(bits))
+    return ("just above the levels — " + "; ".join(words)) if words else ""
 
 
 # ------------------------------------------------------------------ histories
