@@ -348,6 +348,82 @@ def _figure(res: dict[str, Any], title: str) -> Any:
     return fig  # fmt: skip
 
 
+def _engine_versions(engine: str) -> str:
+    try:
+        from pbr_xval.engine import get_engine
+
+        v = get_engine(engine).versions()
+        return ", ".join(f"{k} {x}" for k, x in v.items())
+    except Exception as exc:  # a missing engine package: say so, never an empty panel
+        return f"versions unavailable ({type(exc).__name__})"
+
+
+def verdict_html(res: dict[str, Any], meta: dict[str, Any]) -> str:
+    """The first screen of a ``choose --campaign`` page: what ran, the answer, the disagreements, the settings.
+
+    Tolerance: a setting agrees with the best when its Brier exceeds the best by at most ``k_se``
+    standard errors of the mean paired difference of squared errors over the tests (the measured
+    spread of Brier on this campaign), as the recommendation rule says.
+    """
+    t = res["table"]
+    i = res["recommendation"]
+    n_tests, k = meta.get("tests", ""), res["k_se"]
+    best = t[t.get("best", False) == True] if "best" in t else t.iloc[:0]  # noqa: E712
+    ran = (
+        f"Ran: {len(t)} settings (engine × profile × time step × collision geometry) on {n_tests} shake-table "
+        f"tests of specimen {html.escape(str(meta.get('specimen', '')))} "
+        f"({html.escape(str(meta.get('scenario', '')))}); cost = mean engine wall time per test, s; "
+        "Brier of the 0/1 predictions against the lab's outcomes."
+    )
+    if i is None:
+        answer = "No setting qualifies (every setting had failed runs or no score): no recommendation."
+    else:
+        r = t.loc[i]
+        answer = (
+            f"Recommended: <b>{html.escape(str(r['engine']))} {html.escape(str(r['settings']))}</b> — "
+            f"{r['cost_s_per_test']:.3g} s per test, Brier {r['brier']:.3f}, F1 {r['f1']:.3f}"
+        )
+        if len(best):
+            b = best.iloc[0]
+            answer += (
+                f"; the best Brier is {b['brier']:.3f} ({html.escape(str(b['engine']))} "
+                f"{html.escape(str(b['settings']))}, {b['cost_s_per_test']:.3g} s per test)"
+            )
+        answer += "."
+    beyond = t[(~t["within"].astype(bool)) & t["brier"].notna()] if "within" in t else t.iloc[:0]
+    failed = t[t["n_failed"] > 0] if "n_failed" in t else t.iloc[:0]
+    fail_items = "".join(
+        f"<li>{html.escape(str(r.engine))} {html.escape(str(r.settings))}: {int(r.n_failed)} of "
+        f"{int(r.n_tests)} runs failed (reasons below) — not scored, never recommended</li>"
+        for r in failed.itertuples()
+        if not (r.brier == r.brier)
+    )
+    if len(beyond) or fail_items:
+        items = fail_items + "".join(
+            f"<li>{html.escape(str(r.engine))} {html.escape(str(r.settings))}: Brier {r.brier:.3f}, "
+            f"{r.d_brier:+.3f} vs the best (margin {r.margin:.3f}), F1 {r.f1:.3f}"
+            + (f", {int(r.n_failed)} failed runs" if r.n_failed else "")
+            + "</li>"
+            for r in beyond.itertuples()
+        )
+        dis = f"<h3>Disagreement beyond tolerance</h3><ul>{items}</ul>"
+    else:
+        dis = "<p>Disagreement beyond tolerance: none — every setting is within the margin of the best.</p>"
+    engines: dict[str, list[str]] = {}
+    for r in t.itertuples():
+        engines.setdefault(str(r.engine), []).append(str(r.settings))
+    panel = "".join(
+        f"<li><b>{html.escape(e)}</b> {html.escape(_engine_versions(e))} — {html.escape('; '.join(v))}</li>"
+        for e, v in engines.items()
+    )
+    return (
+        f'<section id="verdict"><h2>Verdict</h2><h3>Engines and settings</h3><ul>{panel}</ul>'
+        f"<p>{ran}</p><p>{answer}</p>{dis}"
+        f"<p>Tolerance: {k:g} standard error of the mean paired difference of squared errors to the best "
+        "setting, over the tests both ran (the measured spread of Brier on this campaign).</p></section>"
+    )
+
+
 def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict[str, Path]:
     """``index.html`` (Pareto plot inline), ``pareto.png``, ``settings.csv``, ``tests.csv``, ``tradeoff.json``."""
     import base64
@@ -401,8 +477,9 @@ def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict
 table{{border-collapse:collapse;font-size:13px}}td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}
 th{{background:#f4f4f4}}code{{background:#f4f4f4}}</style></head><body>
 <h1>Speed–accuracy trade against the experiments</h1>
+{verdict_html(res, meta)}
 <p><b><code>{rec_line}</code></b></p>
-<table>{meta_rows}</table>
+<details><summary>Run details</summary><table>{meta_rows}</table></details>
 <h2>Pareto front: cost vs Brier</h2>
 <p>x: mean engine wall time per test, s (the simulation only, on this machine at the load stated above);
 y: Brier score of the 0/1 predictions against the observed outcomes (equal to the error rate).

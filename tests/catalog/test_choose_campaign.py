@@ -165,3 +165,15 @@ def test_choose_cli_wiring(tmp_path):
     assert r.exit_code == 2 and "not both" in r.output
     r = run(app, ["choose"])
     assert r.exit_code == 2 and "give a CATALOG" in r.output
+
+
+def test_choose_page_opens_with_a_verdict_and_the_settings() -> None:
+    """Issue 24: the committed SP1 page states the recommendation, the settings beyond the margin and
+    the failed ones, and names every engine with its versions, before the Pareto plot."""
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "reports" / "tradeoff_sp1" / "index.html").read_text()
+    head = page[: page.index("<h2>Pareto front")]
+    assert 'id="verdict"' in head and "Recommended: <b>mujoco" in head
+    assert "Disagreement beyond tolerance" in head and "runs failed" in head
+    assert "<b>mujoco</b> pbr_xval" in head and "<b>pybullet</b> pbr_xval" in head
