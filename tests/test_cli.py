@@ -152,7 +152,13 @@ def _documented_commands() -> list[tuple[str, str]]:
 
     out = []
     for doc in [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        lines: list[tuple[int, str]] = []  # shell line continuations (a trailing backslash) joined
         for n, line in enumerate(doc.read_text().splitlines(), start=1):
+            if lines and lines[-1][1].rstrip().endswith("\\"):
+                lines[-1] = (lines[-1][0], lines[-1][1].rstrip()[:-1] + " " + line.strip())
+            else:
+                lines.append((n, line))
+        for n, line in lines:
             spans = re.findall(r"`(pbr-xval [^`]+)`", line)
             stripped = line.strip().lstrip("$ ")
             if (
