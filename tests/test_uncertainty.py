@@ -245,5 +245,5 @@ def test_per_test_designs() -> None:
     assert spec.for_test("12").sample() == a.sample() and a.sample()[0].seed == a.seed
     shared = ensemble_spec(scn_with({"excitation.amplitude": U}))
     assert shared is not None and shared.for_test("12") is shared
-    with pytest.raises(ScenarioError, match="uncertainty.per_test"):
+    with pytest.raises(ScenarioError, match=r"uncertainty\.per_test"):
         scn_with({"excitation.amplitude": U, "per_test": "yes"})
