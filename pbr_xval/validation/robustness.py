@@ -76,10 +76,10 @@ def fragility_table(outcomes: dict[str, pd.DataFrame], engine: str) -> pd.DataFr
 
 
 def _f1(obs: pd.Series, pred: pd.Series) -> float:
-    tp = int(((obs == 1) & (pred == 1)).sum())
-    fp = int(((obs == 0) & (pred == 1)).sum())
-    fn = int(((obs == 1) & (pred == 0)).sum())
-    return 2 * tp / (2 * tp + fp + fn) if tp else 0.0
+    """F1 as validate scores it (:func:`pbr_xval.validation.metrics.score`)."""
+    from pbr_xval.validation.metrics import score
+
+    return float(score(obs.to_numpy() == 1, pred.to_numpy() == 1).f1)
 
 
 def summarise(table: pd.DataFrame, variants: list[str]) -> dict[str, Any]:
