@@ -66,8 +66,8 @@ Resting contact (eqs. 3.6–3.7)
     :mod:`pbr_xval.reference.cone` are called. Every deviation from the paper is listed in
     :mod:`pbr_xval.reference` (the package docstring).
 
-    Speed: :meth:`Stepper.step` runs the compiled :func:`kernel.step` (the same arithmetic
-    as :meth:`Stepper._step_general`, kept equal by a test) and falls back to the NumPy
+    Speed: :meth:`RigidBodySolver.step` runs the compiled :func:`kernel.step` (the same arithmetic
+    as :meth:`RigidBodySolver._step_general`, kept equal by a test) and falls back to the NumPy
     step when an active-set guess fails.
 
 Ground motion
@@ -95,8 +95,8 @@ __all__ = [
     "Body",
     "ContactStats",
     "Pedestal",
+    "RigidBodySolver",
     "State",
-    "Stepper",
     "cayley_project",
     "skew",
 ]
@@ -372,7 +372,7 @@ class _Contacts:
     any_slide: bool = False
 
 
-class Stepper:
+class RigidBodySolver:
     """Advances the :class:`State` by one constant-average-acceleration step with contact.
 
     Parameters

@@ -252,7 +252,7 @@ class ReferenceEngine(EngineBase):
 
     # ------------------------------------------------------------------ simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
-        from pbr_xval.reference.dynamics import Body, Pedestal, State, Stepper, StepRejected
+        from pbr_xval.reference.dynamics import Body, Pedestal, RigidBodySolver, State, StepRejected
         from pbr_xval.stepping import Recorder, initial_pose
 
         s = self.resolve_settings(settings)
@@ -312,14 +312,16 @@ class ReferenceEngine(EngineBase):
         com_rest = np.asarray(scene.rock.com, dtype=float)
         nodes = basal_nodes(scene, s) - com_rest
         body = Body(float(scene.rock.mass), np.asarray(scene.rock.inertia, dtype=float), nodes)
-        stepper = Stepper(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s)
+        stepper = RigidBodySolver(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s)
         com0, rot0, vel0, om0 = initial_pose(scene)
         iw0 = rot0 @ body.inertia @ rot0.T
         state = State(com0.copy(), vel0.copy(), rot0.copy(), iw0 @ om0)
         if stepper.compiled and not _WARM:
             # the kernel's JIT compile (or the load of its on-disk cache) happens here, on a
             # throwaway stepper, not inside the run's CPU time and cost budget
-            _warm_up(Stepper(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s), state)
+            _warm_up(
+                RigidBodySolver(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s), state
+            )
 
         dt_nom = float(s["timestep"])
         rec = Recorder(scene, dt_nom)

@@ -1,4 +1,4 @@
-"""Compiled (numba) kernel of the reference solver: one step of :class:`dynamics.Stepper`.
+"""Compiled (numba) kernel of the reference solver: one step of :class:`dynamics.RigidBodySolver`.
 
 :mod:`pbr_xval.reference.dynamics` is the readable implementation of the seed paper's
 Section 3 (eqs. 3.1–3.7) in NumPy; this module does the same arithmetic for the common
@@ -64,7 +64,7 @@ STEP_GENERAL = 2
 P_MASS, P_MU_S, P_MU_D, P_EPS, P_ITER, P_ITOL, P_VSEP, P_VSLIP, P_ORTH, P_LREF = range(10)
 P_T0, P_DT, P_PED_KIND, P_HX, P_HY, P_REDUCE, P_NO_PEN = range(10, 17)
 #: cos of the largest tilt for which the candidate nodes ``cand`` of :func:`step` are exact
-#: (−2: every node is a candidate); see :meth:`dynamics.Stepper.candidates`
+#: (−2: every node is a candidate); see :meth:`dynamics.RigidBodySolver.candidates`
 P_COS_CAND = 17
 N_PARAMS = 18
 # info vector layout (float64 array) filled by :func:`step`
@@ -720,7 +720,7 @@ def impact_pending(sv, inertia_inv, nodes, cand, d, vp, eps, v_imp, ped_kind, hx
 
 @njit(cache=True)
 def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
-    """Contacts of a step (see :meth:`dynamics.Stepper._contacts`) among the candidate nodes
+    """Contacts of a step (see :meth:`dynamics.RigidBodySolver._contacts`) among the candidate nodes
     ``cand`` (ascending), support-hull reduced when no contact slides.
 
     Returns (idx (k,), slide (k,) bool, sdir (k, 3), stab (3k,))."""
@@ -858,7 +858,7 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     nodes : (N, 3) body-frame contact nodes relative to the COM, m.
     cand : (n,) int, ascending: the candidate nodes — every node that can be within ε of the
         pedestal at a tilt up to arccos ``prm[P_COS_CAND]`` (the others stay more than 3ε above
-        the deepest node; :meth:`dynamics.Stepper.candidates`). The end-of-step check falls
+        the deepest node; :meth:`dynamics.RigidBodySolver.candidates`). The end-of-step check falls
         back to every node when the step ends beyond that tilt or deeper than 2ε.
     active : (N,) int, per node status of the last full solve (read).
     prev_force : (N, 3) last contact force per node (written).

@@ -337,7 +337,14 @@ def test_penetration_at_the_band_edge_is_accepted_not_stepped_back():
     past −ε made every step — at every halving — fail the ε check, so the run advanced by
     Δt/2¹² per 13 kernel calls. A step ending within BAND_TOLERANCE·ε of the band is accepted
     (and the engine projects it back); one ending deeper is still rejected."""
-    from pbr_xval.reference.dynamics import BAND_TOLERANCE, Body, Pedestal, State, Stepper, StepRejected
+    from pbr_xval.reference.dynamics import (
+        BAND_TOLERANCE,
+        Body,
+        Pedestal,
+        RigidBodySolver,
+        State,
+        StepRejected,
+    )
     from pbr_xval.reference.engine import ReferenceEngine
 
     s = ReferenceEngine().resolve_settings({})
@@ -348,7 +355,7 @@ def test_penetration_at_the_band_edge_is_accepted_not_stepped_back():
     inertia = np.diag([m / 3 * (hy**2 + hz**2), m / 3 * (hx**2 + hz**2), m / 3 * (hx**2 + hy**2)])
     g = np.array([0.0, 0.0, -G])
     for sink, rejected in ((1.0 + 0.5 * BAND_TOLERANCE, False), (1.0 + 10 * BAND_TOLERANCE, True)):
-        st = Stepper(Body(m, inertia, nodes), Pedestal("plane"), lambda t: g, 0.6, 0.6, 0.0, s)
+        st = RigidBodySolver(Body(m, inertia, nodes), Pedestal("plane"), lambda t: g, 0.6, 0.6, 0.0, s)
         state = State(np.array([0.0, 0.0, hz - sink * eps]), np.zeros(3), np.eye(3), np.zeros(3))
         try:
             st.step(state, 0.0, 1e-3)
