@@ -1095,3 +1095,102 @@ def test_issue_21_case_count() -> None:
     """Issue 21 found 43 bad cases among 171; each has at least one test here."""
     n = len(OUTPUT_CASES) + len(ROCK_CASES) + len(VALIDATE_CASES) + 2 + 2 + 3 + 3 + 3
     assert n >= 43, n
+
+
+# ------------------------------------------------------------------ issue 21 leftovers: outputs that were replaced silently
+def _box_cloud(path: Path, n: int = 3000) -> None:
+    """A point cloud (x y z, m) sampled on the surface of the 0.4 × 0.4 × 1.2 m box resting on z = 0."""
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    p = np.column_stack([rng.uniform(-0.2, 0.2, n), rng.uniform(-0.2, 0.2, n), rng.uniform(0.0, 1.2, n)])
+    side = rng.integers(0, 6, n)
+    for k, (axis, value) in enumerate([(0, -0.2), (0, 0.2), (1, -0.2), (1, 0.2), (2, 0.0), (2, 1.2)]):
+        p[side == k, axis] = value
+    np.savetxt(path, p, fmt="%.5f")
+
+
+def _cloud_ply(path: Path, n: int = 3000) -> None:
+    """The same cloud as an ASCII PLY with vertices only (a PLY scan that is not a mesh)."""
+    xyz = path.with_suffix(".xyz")
+    _box_cloud(xyz, n)
+    rows = xyz.read_text().splitlines()
+    xyz.unlink()
+    header = ["ply", "format ascii 1.0", f"element vertex {len(rows)}", "property float x",
+              "property float y", "property float z", "end_header"]  # fmt: skip
+    path.write_text("\n".join(header + rows) + "\n")
+
+
+LEFTOVER_CASES: list[tuple[str, list[str], str]] = [
+    ("threshold-json-exists", ["threshold", "{scn}", "-e", "housner", "--json", "{tmp}/afile"], "--overwrite"),
+    ("threshold-json-dir-default-exists", ["threshold", "{scn}", "-e", "housner", "--json", "{tmp}/res"], "--overwrite"),
+    ("rock-cloud-surface-exists", ["rock", "{cloud}", "--out", "{tmp}/r", "--scenario", "{tmp}/new.toml"], "--overwrite"),
+    ("rock-ply-cloud-surface-exists", ["rock", "{ply}", "--out", "{tmp}/r", "--scenario", "{tmp}/new.toml"], "--overwrite"),
+    ("rock-cloud-surface-is-a-folder", ["rock", "{cloud}", "--out", "{tmp}/r", "--scenario", "{tmp}/dir.toml"], "folder"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"), [c[1:] for c in LEFTOVER_CASES], ids=[c[0] for c in LEFTOVER_CASES]
+)
+def test_existing_outputs_need_overwrite(tmp_path: Path, args: list[str], needle: str) -> None:
+    """`threshold --json EXISTING` and the `<stem>.rock.obj` a point cloud's `rock --scenario` writes beside the
+    scenario: refused without --overwrite (as every other output), in one line, before any work, nothing written."""
+    subs = _outputs_fixture(tmp_path)
+    (tmp_path / "res").mkdir()
+    (tmp_path / "res" / "block.housner.threshold.json").write_text('{"mine": true}')
+    _box_cloud(tmp_path / "cloud.xyz")
+    _cloud_ply(tmp_path / "cloud.ply")
+    (tmp_path / "new.rock.obj").write_text("# the user's own mesh\n")
+    (tmp_path / "dir.rock.obj").mkdir()
+    subs.update(cloud=str(tmp_path / "cloud.xyz"), ply=str(tmp_path / "cloud.ply"))
+    before = _snapshot(tmp_path)
+    code, out, elapsed = _invoke([a.format(**subs) for a in args])
+    _check(code, out, needle, elapsed)
+    assert _snapshot(tmp_path) == before
+
+
+def test_threshold_json_overwrite(tmp_path: Path) -> None:
+    """`threshold --json EXISTING --overwrite` replaces the file with the result."""
+    import json
+
+    (tmp_path / "s.toml").write_text(BASE)
+    old = tmp_path / "r.json"
+    old.write_text('{"mine": true}')
+    args = ["threshold", str(tmp_path / "s.toml"), "-e", "housner", "--rel-tol", "0.01", "--json", str(old)]
+    code, out, _ = _work([*args, "--overwrite"])
+    assert code == 0, out
+    assert json.loads(old.read_text())["param"] == "excitation.amplitude"
+
+
+def test_rock_cloud_scenario_overwrite(tmp_path: Path) -> None:
+    """A point cloud's `rock --scenario S.toml --overwrite` replaces S.rock.obj with the reconstructed surface,
+    which the scenario names; a mesh scan writes no S.rock.obj (a user's file of that name is left alone)."""
+    _box_cloud(tmp_path / "cloud.xyz")
+    (tmp_path / "s.rock.obj").write_text("# the user's own mesh\n")
+    args = [
+        "rock",
+        str(tmp_path / "cloud.xyz"),
+        "--out",
+        str(tmp_path / "r"),
+        "--scenario",
+        str(tmp_path / "s.toml"),
+    ]
+    code, out, _ = _work([*args, "--overwrite"])
+    assert code == 0, out
+    assert (tmp_path / "s.rock.obj").read_text().lstrip().startswith(("v ", "#"))
+    assert "the user's own mesh" not in (tmp_path / "s.rock.obj").read_text()
+    assert 'path = "s.rock.obj"' in (tmp_path / "s.toml").read_text()
+    box_obj(tmp_path / "box.obj")
+    (tmp_path / "m.rock.obj").write_text("# the user's own mesh\n")
+    args = [
+        "rock",
+        str(tmp_path / "box.obj"),
+        "--out",
+        str(tmp_path / "r2"),
+        "--scenario",
+        str(tmp_path / "m.toml"),
+    ]
+    code, out, _ = _work(args)
+    assert code == 0, out
+    assert (tmp_path / "m.rock.obj").read_text() == "# the user's own mesh\n"

@@ -49,7 +49,11 @@ def rock(
         float | None, typer.Option(help="node grid spacing, m (> 0; default 1/40 of the rock's size)")
     ] = None,
     overwrite: Annotated[
-        bool, typer.Option("--overwrite", help="replace an existing --scenario file (default: refuse)")
+        bool,
+        typer.Option(
+            "--overwrite",
+            help="replace an existing --scenario file (and a point cloud's <stem>.rock.obj beside it; default: refuse)",
+        ),
     ] = False,
 ) -> None:
     """Rock model of a scan: mass, COM, inertia, contact patch, critical tilt per direction; writes a small report."""

@@ -129,6 +129,12 @@ def rock_command(
             scenario = check_output_file(scenario, "--scenario", overwrite=overwrite)
             if scenario.suffix.lower() != ".toml":
                 return fail(f"--scenario {scenario}: expected a .toml file name")
+            if _is_point_cloud(Path(scan)):  # its surface is written beside the scenario
+                check_output_file(
+                    scenario.with_name(f"{scenario.stem}.rock.obj"),
+                    "--scenario (the point cloud's surface)",
+                    overwrite=overwrite,
+                )
     except OutputPathError as exc:
         return fail(str(exc))
     try:
@@ -225,6 +231,30 @@ def rock_command(
             f"find its toppling amplitude with: pbr-xval threshold {scenario} --engine mujoco)"
         )
     return 0
+
+
+def _is_point_cloud(scan: Path) -> bool:
+    """Whether ``scan`` is a point cloud, from its name and (PLY) its header only, before it is read.
+
+    A PLY file is a mesh when its header declares faces (``element face N``, N > 0), as
+    :func:`pbr_xval.geometry.io.load_scan` reads it; an unreadable file counts as a mesh (reading
+    it reports the error).
+    """
+    from pbr_xval.geometry.io import CLOUD_FORMATS, MESH_FORMATS
+
+    ext = scan.suffix.lower()
+    if ext != ".ply":
+        return ext in CLOUD_FORMATS - MESH_FORMATS
+    try:
+        with open(scan, "rb") as fh:
+            head = fh.read(65536)
+    except OSError:
+        return False
+    for line in head.split(b"end_header", 1)[0].splitlines():
+        words = line.split()
+        if len(words) == 3 and words[0] == b"element" and words[1] == b"face":
+            return not (words[2].isdigit() and int(words[2]) > 0)
+    return True
 
 
 def write_rock_scenario(

@@ -232,9 +232,13 @@ def threshold(
         typer.Option(
             "--json",
             help="also write the result as JSON to this file, or into this folder (an existing one, or a "
-            "path ending in /) as <name>.<engine>.threshold.json",
+            "path ending in /) as <name>.<engine>.threshold.json; an existing file is replaced only with "
+            "--overwrite",
         ),
     ] = None,
+    overwrite: Annotated[
+        bool, typer.Option("--overwrite", help="replace an existing --json file (default: refuse)")
+    ] = False,
 ) -> None:
     """Toppling bands of a scenario parameter: physics lower bound, coarse scan refined near toppling, every
     transition narrowed and confirmed by direct runs.
@@ -254,7 +258,10 @@ def threshold(
     if json_out is not None:  # checked before the search, not after it
         try:
             json_path = check_output_file(
-                json_out, "--json", default_name=f"{scn.name}.{engine}.threshold.json"
+                json_out,
+                "--json",
+                overwrite=overwrite,
+                default_name=f"{scn.name}.{engine}.threshold.json",
             )
         except OutputPathError as exc:
             raise _fail(str(exc)) from None
