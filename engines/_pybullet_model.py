@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pbr_xval.engine import NotApplicable
-from pbr_xval.stepping import matrix_to_quat
+from pbr_xval.quaternions import matrix_to_quat
 
 from ._common import collision_parts, write_obj
 

@@ -76,8 +76,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from pbr_xval.engine import Trajectory
     from pbr_xval.scene import Scene
+    from pbr_xval.trajectory import Trajectory
 
 __all__ = [
     "DEFINITION",

@@ -44,6 +44,8 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "pbr_xval.settings_spec",
             "pbr_xval.tomlio",
             "pbr_xval.lifeline",
+            "pbr_xval.quaternions",
+            "pbr_xval.machine",
         ),
     ),
     # scan → rock model; ground motions
@@ -52,8 +54,10 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("scenario", ("pbr_xval.scenario", "pbr_xval.plausibility", "pbr_xval.uncertainty")),
     # what is simulated
     ("scene", ("pbr_xval.scene",)),
-    # the engine interface, the trajectory and its engine-neutral diagnostics
-    ("engine", ("pbr_xval.engine", "pbr_xval.diagnostics", "pbr_xval.stepping", "pbr_xval.stepping.*")),
+    # what every engine returns: the trajectory and its engine-neutral diagnostics
+    ("trajectory", ("pbr_xval.trajectory", "pbr_xval.diagnostics")),
+    # the engine interface and registry lookup, the shared stepping core
+    ("engine", ("pbr_xval.engine", "pbr_xval.stepping", "pbr_xval.stepping.*")),
     # the solvers behind that interface, and running a scene through one
     (
         "engines",

@@ -1,4 +1,4 @@
-"""The stepping core's rotation → quaternion conversions against scipy, branch by branch.
+"""pbr_xval.quaternions' rotation → quaternion conversions against scipy, branch by branch.
 
 Every adapter's orientation output goes through them (Shepperd's method: four branches, the one
 with the largest diagonal term). Mutation testing found branches that only one sample reached.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pbr_xval.stepping import matrices_to_quats, matrix_to_quat
+from pbr_xval.quaternions import matrices_to_quats, matrix_to_quat
 
 
 def _ref(r: Rotation) -> np.ndarray:

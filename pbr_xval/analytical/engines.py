@@ -25,7 +25,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pbr_xval.engine import Capabilities, EngineBase, Event, NotApplicable, Trajectory, axis_angle_quat
+from pbr_xval.engine import Capabilities, EngineBase, NotApplicable
+from pbr_xval.quaternions import axis_angle_quat
+from pbr_xval.trajectory import Event, Trajectory
 
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene

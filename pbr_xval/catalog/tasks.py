@@ -296,7 +296,8 @@ def run_chunk(spec: ChunkSpec) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     import numpy as np
 
     from pbr_xval.diagnostics import ensure_standard_diagnostics
-    from pbr_xval.engine import NotApplicable, machine_info
+    from pbr_xval.engine import NotApplicable
+    from pbr_xval.machine import machine_info
     from pbr_xval.motion import intensity_measures
     from pbr_xval.runner import effective_settings
     from pbr_xval.scenario import scenario_from_dict

@@ -191,7 +191,7 @@ def _arrow_table(df: pd.DataFrame, meta: Mapping[str, Any]) -> Any:
 
 def base_provenance(extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """pbr-xval version, date (UTC), command line and machine, updated by ``extra``."""
-    from pbr_xval.engine import machine_info
+    from pbr_xval.machine import machine_info
     from pbr_xval.version import __version__
 
     prov: dict[str, Any] = {
