@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull
 
-__all__ = ["basal_nodes", "decimate_keep_base"]
+__all__ = ["basal_nodes", "decimate_keep_base", "manifold_repair"]
 
 
 def decimate_keep_base(mesh: trimesh.Trimesh, cell: float, band: float) -> trimesh.Trimesh:
@@ -15,6 +17,12 @@ def decimate_keep_base(mesh: trimesh.Trimesh, cell: float, band: float) -> trime
     Vertices higher than ``min z + band`` (m) are snapped to the centroid of their cell in a
     grid of size ``cell`` (m); faces that collapse are dropped. Vertices in the band are untouched,
     so the contact geometry is exactly the original's.
+
+    Clustering can leave non-manifold edges (three or four faces on one edge, two faces with the
+    same edge direction) and small holes, which engines reject: MuJoCo refuses a mesh whose faces
+    have "inconsistent orientation" (a directed edge used twice) for its exact inertia.
+    :func:`manifold_repair` removes the faces at those edges and closes the holes with fans of
+    the existing vertices, so the result is closed and consistently oriented (no vertex moves).
     """
     v = np.asarray(mesh.vertices, dtype=float)
     zmin = v[:, 2].min()
@@ -35,7 +43,83 @@ def decimate_keep_base(mesh: trimesh.Trimesh, cell: float, band: float) -> trime
     out = trimesh.Trimesh(vertices=nv, faces=f[keep], process=True)
     out.update_faces(out.unique_faces())
     out.remove_unreferenced_vertices()
+    faces = manifold_repair(len(out.vertices), np.asarray(out.faces, dtype=np.int64))
+    out = trimesh.Trimesh(vertices=np.asarray(out.vertices), faces=faces, process=False)
+    out.remove_unreferenced_vertices()
+    if out.volume < 0:  # the input was inward: keep the decimated surface outward like a closed rock
+        out.invert()
     return out
+
+
+def _edges(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Directed edges (3m, 2) of faces (m, 3) and the face of each."""
+    return np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), np.tile(np.arange(len(f)), 3)
+
+
+def _boundary_loops(edges: np.ndarray) -> list[list[int]]:
+    """Simple cycles of the boundary's directed edges (a vertex met twice splits a cycle)."""
+    nxt: dict[int, list[int]] = {}
+    for a, b in edges.tolist():
+        nxt.setdefault(a, []).append(b)
+    loops: list[list[int]] = []
+    for start in sorted(nxt):
+        while nxt[start]:
+            path, pos, cur = [start], {start: 0}, start
+            while nxt.get(cur):
+                b = nxt[cur].pop(0)
+                if b in pos:  # a cycle closes at b: cut it out and go on from b
+                    p = pos[b]
+                    if len(path) - p >= 3:
+                        loops.append(path[p:])
+                    for x in path[p + 1 :]:
+                        del pos[x]
+                    del path[p + 1 :]
+                else:
+                    pos[b] = len(path)
+                    path.append(b)
+                cur = b
+    return loops
+
+
+def manifold_repair(n_vertices: int, faces: np.ndarray, max_rounds: int = 20) -> np.ndarray:
+    """Faces (k, 3) of a closed, consistently oriented surface from nearly manifold ``faces`` (m, 3).
+
+    Each round removes the faces on a bad edge (a directed edge of two faces, or an undirected
+    edge of four or more), growing the removed region by one ring of faces per round while
+    bad edges persist, then closes every boundary cycle with a fan of its own vertices (oriented
+    against the boundary, so every directed edge appears once and its reverse once). Deterministic.
+    Raises ``ValueError`` when ``max_rounds`` rounds do not converge.
+    """
+    f = np.asarray(faces, dtype=np.int64)
+    n = int(n_vertices)
+    for rnd in range(max_rounds):
+        e, fi = _edges(f)
+        dk = e[:, 0] * n + e[:, 1]
+        uk = np.minimum(e[:, 0], e[:, 1]) * n + np.maximum(e[:, 0], e[:, 1])
+        _, dinv, dc = np.unique(dk, return_inverse=True, return_counts=True)
+        _, uinv, uc = np.unique(uk, return_inverse=True, return_counts=True)
+        # a directed edge of two faces; four faces on an edge, two each way (three faces always
+        # repeat a direction)
+        bad = (dc[dinv.ravel()] > 1) | (uc[uinv.ravel()] > 3)
+        boundary = ~np.isin(e[:, 1] * n + e[:, 0], dk)
+        if not bad.any() and not boundary.any():
+            return f
+        if bad.any():
+            drop = np.zeros(len(f), dtype=bool)
+            drop[fi[bad]] = True
+            for _ in range(rnd):  # the repair did not converge: a wider region
+                drop |= np.isin(f, np.unique(f[drop])).any(axis=1)
+            f = f[~drop]
+            e, _ = _edges(f)
+            boundary = ~np.isin(e[:, 1] * n + e[:, 0], e[:, 0] * n + e[:, 1])
+        new: list[Any] = [
+            (loop[0], loop[i + 1], loop[i])
+            for loop in _boundary_loops(e[boundary])
+            for i in range(1, len(loop) - 1)
+        ]
+        if new:
+            f = np.vstack([f, np.asarray(new, dtype=np.int64)])
+    raise ValueError(f"manifold_repair: not a closed oriented surface after {max_rounds} rounds")
 
 
 def basal_nodes(
