@@ -20,6 +20,21 @@ Usage (a developer tool; minutes per engine and specimen)::
 
 writes ``robustness.csv`` (per test: observed, each variant's prediction, ``fragile``) and
 ``robustness.json`` (fragile share, F1 per variant, the outcome of every test that is robust).
+
+**Ensembles** (``--ensemble``, issue 22): the scenario's ``[uncertainty]`` ensemble of every test
+(as ``pbr-xval validate --ensemble``, without the deterministic runs) once as committed and once per
+perturbation of *every member*: ``tilt`` shifts the ``initial.theta`` distribution by 1e-9 rad
+(each member's sampled seating tilt moves by 1e-9 rad), ``dt±1%`` scales the ``timestep``
+distribution (each member's time step × 1.01 / × 0.99). Per test: P(topple) of each variant, the
+base run's Jeffreys 95 % interval, whether a variant's P lies outside it; per variant: the largest
+|ΔP|, Brier and F1 at P ≥ 0.5; and the intervals of Brier and F1 when each test's P may take any
+value it took under a variant (:func:`ensemble_score_range`)::
+
+    python -m pbr_xval.validation.robustness ../shared/data/shake_table --specimen 1 \\
+        --scenario examples/validation/sp1.toml --ensemble --half-width 0.1 --tests 15,19,… \\
+        --variants base,tilt,dt+1% --out runs/robust_sp1_ensemble
+
+writes ``ensemble_robustness.csv`` (per test × variant: k, n, P) and ``ensemble_robustness.json``.
 """
 
 from __future__ import annotations
@@ -33,12 +48,24 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 import tomli_w
 
 from pbr_xval.atomic import write_text_atomic
 
-__all__ = ["VARIANTS", "f1_range", "fragility_table", "main", "summarise"]
+__all__ = [
+    "ENSEMBLE_VARIANTS",
+    "VARIANTS",
+    "ensemble_score_range",
+    "ensemble_summary",
+    "ensemble_variant_uncertainty",
+    "f1_range",
+    "fragility_table",
+    "main",
+    "run_ensemble_variant",
+    "summarise",
+]
 
 #: variant name -> (scenario keys to set, engine settings to set as factors of the faithful dt)
 VARIANTS: dict[str, tuple[dict[str, Any], dict[str, float]]] = {
@@ -120,6 +147,297 @@ def f1_range(observed: dict[str, int], robust: dict[str, int], fragile: list[str
     return f1(tp, fp + neg, fn + pos), f1(tp + pos, fp, fn)
 
 
+# --------------------------------------------------------------------------- ensembles (issue 22)
+#: ensemble variant -> what it does to every member (the ``[uncertainty]`` key it moves)
+ENSEMBLE_VARIANTS: dict[str, str] = {
+    "base": "as committed",
+    "tilt": "initial.theta distribution shifted by 1e-9 rad (every member's seating tilt + 1e-9 rad)",
+    "dt+1%": "timestep distribution × 1.01 (every member's time step × 1.01)",
+    "dt-1%": "timestep distribution × 0.99 (every member's time step × 0.99)",
+    "haswell": "as committed, OpenBLAS forced to its Haswell kernels (OPENBLAS_CORETYPE=Haswell: an AVX2 CPU's)",
+}
+_TILT = 1e-9
+_DT_FACTOR = {"dt+1%": 1.01, "dt-1%": 0.99}
+
+
+def ensemble_variant_uncertainty(table: dict[str, Any], variant: str) -> dict[str, Any]:
+    """The ``[uncertainty]`` table of ``variant``: a copy with one distribution moved.
+
+    ``tilt``: the ``initial.theta`` distribution shifted by 1e-9 rad (a normal's mean and bounds, a
+    uniform's ends, a choice's values), so that member *i*'s tilt is its base value + 1e-9 rad;
+    ``dt±1%``: the ``timestep`` distribution scaled by 1.01 / 0.99 (every member's time step).
+    Raises ``ValueError`` when the table does not make that key uncertain.
+    """
+    import copy
+
+    out = copy.deepcopy(table)
+    if variant in ("base", "haswell"):
+        return out
+    key = "initial.theta" if variant == "tilt" else "timestep"
+    if variant not in ENSEMBLE_VARIANTS:
+        raise ValueError(f"variant {variant!r}: expected one of {', '.join(ENSEMBLE_VARIANTS)}")
+    d = out.get(key)
+    if not isinstance(d, dict):
+        raise ValueError(f"[uncertainty] has no {key!r} distribution for the {variant!r} variant to move")
+
+    def move(x: float) -> float:
+        return x + _TILT if variant == "tilt" else x * _DT_FACTOR[variant]
+
+    fields = {"uniform": ("low", "high"), "normal": ("mean", "low", "high"), "lognormal": ("median",)}
+    if d.get("dist") == "choice":
+        d["values"] = [move(float(v)) for v in d["values"]]
+    elif d.get("dist") in fields:
+        for f in fields[d["dist"]]:
+            if f in d:
+                d[f] = move(float(d[f]))
+        if d["dist"] == "normal" and variant != "tilt":
+            d["sd"] = float(d["sd"]) * _DT_FACTOR[variant]
+    else:
+        raise ValueError(f"[uncertainty].{key}: distribution {d.get('dist')!r} not supported")
+    return out
+
+
+def _ensemble_variant_scenario(scenario: Path, variant: str, folder: Path) -> Path:
+    """The scenario with its ``[uncertainty]`` table moved by ``variant``, written to ``folder``."""
+    d = tomllib.loads(scenario.read_text())
+    table = ensemble_variant_uncertainty(d.get("uncertainty", {}), variant)
+    moved = _variant_scenario(scenario, {}, folder)
+    d2 = tomllib.loads(moved.read_text())
+    d2["uncertainty"] = table
+    write_text_atomic(moved, tomli_w.dumps(d2))
+    return moved
+
+
+def run_ensemble_variant(
+    campaign: Path,
+    specimen: int,
+    scenario: Path,
+    out: Path,
+    *,
+    tests: list[str] | None = None,
+    members: int | None = None,
+    half_width: float | None = 0.1,
+    batch: int = 4,
+    workers: int = 2,
+    progress: bool = False,
+) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The scenario's ensemble of every test, as ``pbr-xval validate --ensemble`` runs it (the same
+    baseline correction, engines, settings and store layout under ``out``; no deterministic runs).
+
+    Returns (one row per test, campaign order: ``test``, ``observed``, ``pga_m_s2``, ``pgv_m_s``
+    (the lab sheet's), ``k`` toppled of ``n`` members that ran, ``p`` = k / n (NaN when none ran),
+    ``failed`` member runs; one row per test × member, as ``ensemble_members.csv``).
+    """
+    import math
+
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.uncertainty import ensemble_spec
+    from pbr_xval.validation.campaign import Baseline, load_campaign
+    from pbr_xval.validation.ensemble import ensemble_p, run_campaign_ensemble
+    from pbr_xval.validation.runner import prepare_motions
+
+    camp = load_campaign(campaign, specimen).select(tests)
+    base = Baseline(
+        detrend="linear", highpass_hz=0.3, lowpass_hz=25.0, resample_hz=200.0
+    )  # validate's defaults
+    motions = prepare_motions(camp, base, out / "motions")
+    scn = load_scenario(scenario)
+    spec = ensemble_spec(scn)
+    if spec is None:
+        raise ValueError(f"{scenario}: no [uncertainty] table")
+    engines, _ = spec.mixture(None)
+    df, _summary = run_campaign_ensemble(
+        camp, motions, scn, spec, out, members=members, engines=engines, settings={e: {} for e in engines},
+        workers=workers, progress=progress, half_width=half_width, batch=batch,
+    )  # fmt: skip
+    names = [t.test for t in camp.tests]
+    p, n_ok, n_bad = ensemble_p(df, names)
+    g = 9.80665
+    rows = []
+    for j, t in enumerate(camp.tests):
+        pga = float(t.sheet.get("pga_g", math.nan)) * g
+        rows.append(
+            {
+                "test": t.test, "observed": int(t.toppled), "pga_m_s2": pga,
+                "pgv_m_s": pga * float(t.sheet.get("pgv_over_pga_s", math.nan)),
+                "k": int(np.rint(p[j] * n_ok[j])) if n_ok[j] else 0, "n": int(n_ok[j]), "p": float(p[j]),
+                "failed": int(n_bad[j]),
+            }
+        )  # fmt: skip
+    return pd.DataFrame(rows), df
+
+
+def ensemble_score_range(
+    observed: dict[str, int], p_values: dict[str, list[float]]
+) -> dict[str, tuple[float, float]]:
+    """(lowest, highest) Brier and F1 at P ≥ 0.5 when each test's P may take any value in ``p_values[test]``.
+
+    The ensemble's analogue of :func:`f1_range`: the values a test's P took under the
+    perturbations are what another machine may give it. Brier is a mean of per-test terms, so its
+    bounds are the means of each test's smallest and largest (P − o)²; F1 depends on each test's
+    side of 0.5 only, so a test whose side changed is *fragile* and :func:`f1_range` applies.
+    """
+    tests = sorted(p_values)
+    lo = sum(min((p - observed[t]) ** 2 for p in p_values[t]) for t in tests) / len(tests)
+    hi = sum(max((p - observed[t]) ** 2 for p in p_values[t]) for t in tests) / len(tests)
+    sides = {t: {int(p >= 0.5) for p in p_values[t]} for t in tests}
+    robust = {t: next(iter(s)) for t, s in sides.items() if len(s) == 1}
+    fragile = [t for t, s in sides.items() if len(s) > 1]
+    return {"brier": (lo, hi), "f1": f1_range({t: observed[t] for t in tests}, robust, fragile)}
+
+
+def ensemble_summary(
+    results: dict[str, pd.DataFrame], *, baselines: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
+    """Per test and variant (k, n, P), the base run's Jeffreys 95 % interval, the tests whose P left it,
+    the largest |ΔP|, each variant's Brier and F1, and :func:`ensemble_score_range` over the variants.
+
+    ``results``: variant → :func:`run_ensemble_variant` rows ("base" first); ``baselines``: model →
+    P per test (the base rows' order), e.g. the out-of-fold logistic baselines, scored alongside.
+    """
+    from pbr_xval.uncertainty import jeffreys_interval
+    from pbr_xval.validation.scores import probabilistic_scores
+
+    base = results["base"].set_index("test")
+    tests = [str(t) for t in base.index]
+    observed = {t: int(base.loc[t, "observed"]) for t in tests}
+    per_test: dict[str, Any] = {}
+    outside: dict[str, list[str]] = {v: [] for v in results if v != "base"}
+    max_dp: dict[str, float] = {v: 0.0 for v in results if v != "base"}
+    for t in tests:
+        k, n = int(base.loc[t, "k"]), int(base.loc[t, "n"])
+        lo, hi = jeffreys_interval(k, n)
+        row: dict[str, Any] = {"observed": observed[t], "jeffreys95": [lo, hi]}
+        for v, r in results.items():
+            rv = r.set_index("test").loc[t]
+            row[v] = {"k": int(rv["k"]), "n": int(rv["n"]), "p": float(rv["p"])}
+            if v != "base":
+                if not lo <= float(rv["p"]) <= hi:
+                    outside[v].append(t)
+                max_dp[v] = max(max_dp[v], abs(float(rv["p"]) - float(base.loc[t, "p"])))
+        per_test[t] = row
+    obs = np.array([observed[t] for t in tests])
+    scores = {}
+    for v, r in results.items():
+        pv = r.set_index("test").loc[tests, "p"].to_numpy(float)
+        s = probabilistic_scores(obs, pv)
+        scores[v] = {k: float(s[k]) for k in ("brier", "log_loss", "auc", "f1")}
+    rng = ensemble_score_range(observed, {t: [per_test[t][v]["p"] for v in results] for t in tests})
+    out: dict[str, Any] = {
+        "tests": tests,
+        "variants_run": list(results),
+        "variants": {v: ENSEMBLE_VARIANTS[v] for v in results},
+        "outside_base_interval": outside,
+        "max_abs_dp": max_dp,
+        "scores": scores,
+        "brier_range": list(rng["brier"]),
+        "f1_range": list(rng["f1"]),
+        "member_runs": {v: int(r["n"].sum() + r["failed"].sum()) for v, r in results.items()},
+        "per_test": per_test,
+    }
+    if baselines:
+        bs = {
+            m: float(probabilistic_scores(obs, np.asarray(p, float))["brier"]) for m, p in baselines.items()
+        }
+        best = min(bs, key=lambda m: bs[m])
+        out["baselines_brier"] = bs
+        out["best_baseline"] = best
+        out["margin_vs_best_baseline"] = {v: 1.0 - scores[v]["brier"] / bs[best] for v in results}
+        out["margin_worst_case"] = 1.0 - rng["brier"][1] / bs[best]
+    return out
+
+
+def logistic_out_of_fold(
+    campaign: Path, specimen: int, tests: list[str], folds: int = 4
+) -> dict[str, np.ndarray]:
+    """The out-of-fold logistic baselines fitted on *every* test of the campaign (folds by record,
+    as validate), their P on ``tests`` (in that order) — no simulation needed."""
+    from pbr_xval.validation.campaign import load_campaign
+    from pbr_xval.validation.metrics import group_folds
+    from pbr_xval.validation.scores import logistic_baselines
+
+    camp = load_campaign(campaign, specimen)
+    g = 9.80665
+    pga = np.array([float(t.sheet["pga_g"]) * g for t in camp.tests])
+    pgv = pga * np.array([float(t.sheet["pgv_over_pga_s"]) for t in camp.tests])
+    obs = np.array([int(t.toppled) for t in camp.tests])
+    fold = group_folds([t.motion for t in camp.tests], folds)
+    lb = logistic_baselines(pga, pgv, obs, fold)
+    idx = {t.test: i for i, t in enumerate(camp.tests)}
+    sel = [idx[t] for t in tests]
+    return {m: p[sel] for m, p in lb.items()}
+
+
+def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
+    """The base ensemble in a process whose OpenBLAS uses its Haswell kernels (written to ``folder``)."""
+    import os
+
+    cmd = [sys.executable, "-m", "pbr_xval.validation.robustness", str(a.campaign), "--specimen", str(a.specimen),
+           "--scenario", str(a.scenario), "--ensemble", "--variants", "base", "--batch", str(a.batch),
+           "--workers", str(a.workers), "--out", str(folder)]  # fmt: skip
+    if a.members is not None:
+        cmd += ["--members", str(a.members)]
+    if a.half_width is not None:
+        cmd += ["--half-width", str(a.half_width)]
+    if a.tests:
+        cmd += ["--tests", a.tests]
+    subprocess.run(cmd, check=True, env={**os.environ, "OPENBLAS_CORETYPE": "Haswell"})
+
+
+def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
+    """``--ensemble``: every variant's ensemble, then ``ensemble_robustness.{csv,json}``."""
+    import datetime
+    import time
+
+    tests = [t.strip() for t in a.tests.split(",") if t.strip()] if a.tests else None
+    results: dict[str, pd.DataFrame] = {}
+    walls: dict[str, float] = {}
+    for name in names:
+        folder = a.out / name.replace("%", "pct").replace("+", "plus").replace("-", "minus")
+        print(f"robustness: ensemble {name} ({ENSEMBLE_VARIANTS[name]})", flush=True)
+        t0 = time.perf_counter()
+        if name == "haswell":  # OpenBLAS reads its core type once, at load: a process of its own
+            _haswell_base(a, folder)
+            t = pd.read_csv(folder / "ensemble_robustness.csv", dtype={"test": str})
+            results[name] = t[t["variant"] == "base"].drop(columns="variant").reset_index(drop=True)
+        else:
+            scn = a.scenario if name == "base" else _ensemble_variant_scenario(a.scenario, name, folder)
+            results[name], members = run_ensemble_variant(
+                Path(a.campaign), a.specimen, scn, folder, tests=tests, members=a.members,
+                half_width=a.half_width, batch=a.batch, workers=a.workers, progress=False,
+            )  # fmt: skip
+            write_text_atomic(folder / "ensemble_members.csv", members.to_csv(index=False))
+        walls[name] = round(time.perf_counter() - t0, 1)
+    order = [str(t) for t in results["base"]["test"]]
+    summary = {
+        "specimen": a.specimen,
+        "scenario": str(a.scenario),
+        "ensemble": {"members": a.members, "half_width": a.half_width, "batch": a.batch},
+        **ensemble_summary(results, baselines=logistic_out_of_fold(Path(a.campaign), a.specimen, order)),
+        "wall_s": walls,
+        "measured": {
+            "date": datetime.date.today().isoformat(),
+            "tool": "python -m pbr_xval.validation.robustness --ensemble",
+        },
+    }
+    table = pd.concat([r.assign(variant=v) for v, r in results.items()], ignore_index=True)
+    write_text_atomic(a.out / "ensemble_robustness.csv", table.to_csv(index=False))
+    write_text_atomic(a.out / "ensemble_robustness.json", json.dumps(summary, indent=1))
+    for v in names[1:]:
+        print(
+            f"robustness ensemble SP{a.specimen} {v}: {len(summary['outside_base_interval'][v])}/{len(order)} tests "
+            f"outside the base run's Jeffreys 95 % interval; max |ΔP| {summary['max_abs_dp'][v]:.3f}"
+        )
+    for v, s in summary["scores"].items():
+        print(f"robustness ensemble SP{a.specimen} {v}: Brier {s['brier']:.4f}  F1 {s['f1']:.4f}")
+    print(
+        f"Brier range {summary['brier_range'][0]:.4f}–{summary['brier_range'][1]:.4f}, F1 range "
+        f"{summary['f1_range'][0]:.4f}–{summary['f1_range'][1]:.4f}; best baseline {summary['best_baseline']} "
+        f"Brier {summary['baselines_brier'][summary['best_baseline']]:.4f}"
+    )
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
         prog="python -m pbr_xval.validation.robustness", description=__doc__.split("\n")[0]
@@ -127,7 +445,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("campaign")
     p.add_argument("--specimen", type=int, default=1)
     p.add_argument("--scenario", type=Path, required=True)
-    p.add_argument("--engine", required=True)
+    p.add_argument("--engine", default=None, help="the engine (deterministic mode)")
+    p.add_argument("--ensemble", action="store_true", help="the scenario's [uncertainty] ensemble instead")
+    p.add_argument("--members", type=int, default=None, help="--ensemble: members per test (at most)")
+    p.add_argument("--half-width", type=float, default=None, help="--ensemble: adaptive, as validate")
+    p.add_argument("--batch", type=int, default=4, help="--ensemble: members per adaptive batch")
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--tests", default=None)
     p.add_argument("--variants", default=",".join(VARIANTS))
@@ -136,6 +458,14 @@ def main(argv: list[str] | None = None) -> int:
     from pbr_xval.engine import get_engine
 
     names = [v.strip() for v in a.variants.split(",") if v.strip()]
+    if a.ensemble:
+        unknown = sorted(set(names) - set(ENSEMBLE_VARIANTS))
+        if unknown or not names or names[0] != "base":
+            p.error(f"--variants: {unknown or 'base not first'}: expected 'base' first, then any of "
+                    f"{', '.join(ENSEMBLE_VARIANTS)}")  # fmt: skip
+        return _ensemble_main(a, names)
+    if a.engine is None:
+        p.error("--engine is required (or --ensemble)")
     unknown = sorted(set(names) - set(VARIANTS))
     if unknown or "base" not in names:
         p.error(f"--variants: {unknown or 'base missing'}: expected 'base' and any of {', '.join(VARIANTS)}")

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import pandas as pd
 import pytest
 
 from pbr_xval.validation.robustness import f1_range, fragility_table, main, summarise
+
+from .conftest import REPO
 
 
 def _oc(pred: list[int]) -> pd.DataFrame:
@@ -37,3 +41,48 @@ def test_f1_range_over_the_fragile_tests() -> None:
     assert lo == pytest.approx(2 / (2 + 1 + 2))  # both missed: TP 1, FP 1, FN 2
     assert hi == pytest.approx(6 / (6 + 1))  # both caught: TP 3, FP 1
     assert f1_range(observed, robust, []) == (pytest.approx(2 / 3), pytest.approx(2 / 3))
+
+
+# --------------------------------------------------------------------------- ensembles
+def test_ensemble_variants_move_every_member_by_the_stated_amount() -> None:
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.uncertainty import EnsembleSpec, ensemble_spec
+    from pbr_xval.validation.robustness import ensemble_variant_uncertainty
+
+    table: dict[str, Any] = {
+        "members": 16, "seed": 0, "sampling": "sobol", "engines": ["mujoco", "pybullet"],
+        "initial.theta": {"dist": "normal", "mean": 0.0, "sd": 0.002, "low": -0.005, "high": 0.005},
+        "timestep": {"dist": "uniform", "low": 0.8e-3, "high": 1.2e-3},
+    }  # fmt: skip
+    assert ensemble_variant_uncertainty(table, "base") == table
+    tilt = ensemble_variant_uncertainty(table, "tilt")
+    assert tilt["initial.theta"]["mean"] == 1e-9 and tilt["initial.theta"]["sd"] == 0.002
+    assert tilt["timestep"] == table["timestep"] and table["initial.theta"]["mean"] == 0.0  # a copy
+    dt = ensemble_variant_uncertainty(table, "dt+1%")
+    assert dt["timestep"] == {"dist": "uniform", "low": 0.8e-3 * 1.01, "high": 1.2e-3 * 1.01}
+    with pytest.raises(ValueError, match=r"initial\.theta"):
+        ensemble_variant_uncertainty({"members": 4}, "tilt")
+
+    def members(t: dict) -> list:
+        scn = load_scenario(REPO / "examples" / "validation" / "sp1.toml", check_files=False)
+        spec = ensemble_spec(scn.model_copy(update={"uncertainty": t}))
+        assert isinstance(spec, EnsembleSpec)
+        return spec.sample(engines=["mujoco", "pybullet"])
+
+    base, moved, slower = members(table), members(tilt), members(dt)
+    for b, m, s in zip(base, moved, slower, strict=True):
+        assert m.values["initial.theta"] - b.values["initial.theta"] == pytest.approx(1e-9, rel=1e-6)
+        assert m.values["timestep"] == b.values["timestep"] and m.engine == b.engine
+        assert s.values["timestep"] == pytest.approx(1.01 * b.values["timestep"], rel=1e-12)
+
+
+def test_ensemble_score_range_is_spanned_by_each_tests_values() -> None:
+    from pbr_xval.validation.robustness import ensemble_score_range
+
+    observed = {"a": 1, "b": 0, "c": 1}
+    # a: 0.75 or 1 (always ≥ 0.5); b: 0 or 0.5 (its side of 0.5 changes: fragile); c: 0.25
+    r = ensemble_score_range(observed, {"a": [0.75, 1.0], "b": [0.0, 0.5], "c": [0.25]})
+    assert r["brier"][0] == pytest.approx((0.0 + 0.0 + 0.5625) / 3)
+    assert r["brier"][1] == pytest.approx((0.0625 + 0.25 + 0.5625) / 3)
+    # robust: a TP, c FN; b a false alarm (F1 2/(2+1+1)) or a true negative (2/(2+0+1))
+    assert r["f1"] == (pytest.approx(0.5), pytest.approx(2 / 3))
