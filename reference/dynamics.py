@@ -94,6 +94,7 @@ from pbr_xval.reference import cone, kernel, pivoting, selection
 __all__ = [
     "Body",
     "ContactStats",
+    "ImpactPending",
     "Pedestal",
     "RigidBodySolver",
     "State",
@@ -360,6 +361,11 @@ class StepRejected(Exception):
     """A trial step penetrated deeper than ε."""
 
 
+class ImpactPending(Exception):
+    """:meth:`RigidBodySolver.step` with ``impact_check``: an in-band node approaches faster
+    than ``impact_velocity`` at the start of the step (resolve the impact, then step)."""
+
+
 @dataclass
 class _Contacts:
     """Contacts of one step: node ids, status per contact (support-hull reduced)."""
@@ -446,6 +452,7 @@ class RigidBodySolver:
             prm[kernel.P_HX], prm[kernel.P_HY] = pedestal.half_extents[0], pedestal.half_extents[1]
         prm[kernel.P_REDUCE] = 1.0 if self.reduce else 0.0
         prm[kernel.P_COS_CAND] = -2.0
+        prm[kernel.P_VIMP] = self.v_imp
         self._prm = prm
         # candidate nodes (exact culling, see :meth:`candidates`): every node on a box pedestal
         # (a node beside the box can hang below its top), else by tilt
@@ -658,8 +665,23 @@ class RigidBodySolver:
     # ------------------------------------------------------------------ collisions (eq. 3.5)
     def resolve_impacts(self, s: State, t: float, dt: float) -> tuple[State, dict[str, Any] | None]:
         """Apply eq. 3.5 impulses when an in-band contact approaches faster than ``impact_velocity``."""
-        r_all, gaps, vel, w = self.node_kinematics(s, t)
-        inband = (gaps <= self.eps).nonzero()[0]
+        # the kinematics of the candidate nodes only (the in-band nodes are among them, see
+        # :meth:`candidates`), computed as :meth:`impact_pending` does
+        d, vped, _ = self.ped.motion(t)
+        prm = self._prm
+        cand = self.candidates(s, self._dt_hint)
+        r_all, gaps, vel, w = kernel.kinematics(
+            s.buf,
+            self.body.inertia_inv,
+            self.body.nodes,
+            cand,
+            d,
+            vped,
+            int(prm[kernel.P_PED_KIND]),
+            prm[kernel.P_HX],
+            prm[kernel.P_HY],
+        )
+        inband = cand[gaps[cand] <= self.eps]
         if inband.size == 0:
             return s, None
         vn = vel[inband, 0]
@@ -698,12 +720,21 @@ class RigidBodySolver:
         # eq. 3.5 on the normal impulses, tangential impulses held fixed; selection among the
         # (for e = 0 and redundant contacts) non-unique solutions
         qn = q[0::3] + A[0::3][:, np.r_[1 : 3 * k : 3, 2 : 3 * k : 3]] @ np.concatenate([j[1::3], j[2::3]])
-        ref = prev[0::3] if self.selection == "closest_to_previous" else None
-        resn = selection.solve_lcp_min_norm(A[0::3, 0::3], qn, reference=ref, method=self.method)
-        self.stats.lcp_pivots += resn.pivots
+        Ann = np.ascontiguousarray(A[0::3, 0::3])
+        # a positive definite, well-conditioned A_nn (at most three non-collinear hull
+        # contacts, the common case) has one solution: no selection to make, and the
+        # enumeration of its principal subsets finds it faster than pivoting
+        unique, zn = kernel.lcp_unique(Ann, np.ascontiguousarray(qn))
+        if unique:
+            res_ok = True
+        else:
+            ref = prev[0::3] if self.selection == "closest_to_previous" else None
+            resn = selection.solve_lcp_min_norm(Ann, qn, reference=ref, method=self.method)
+            self.stats.lcp_pivots += resn.pivots
+            res_ok, zn = resn.ok, resn.z
         jn_cone = j[0::3].copy()
-        if resn.ok:
-            j[0::3] = resn.z
+        if res_ok:
+            j[0::3] = zn
             # the re-selection moves normal impulse only within null(A_nn) (no change of
             # motion); keep it only if every tangential impulse stays inside its cone
             jt_norm = np.hypot(j[1::3], j[2::3])
@@ -713,7 +744,7 @@ class RigidBodySolver:
         else:
             self.stats.lcp_failures += 1
             if self.mu_s == 0:
-                j[0::3] = np.maximum(resn.z, 0.0)
+                j[0::3] = np.maximum(zn, 0.0)
         vpost = A @ j + bvel
         jt = j.reshape(k, 3)
         self.stats.record_residuals(cone.friction_residuals(j, A @ j + q, np.full(k, self.mu_s)))
@@ -788,17 +819,22 @@ class RigidBodySolver:
             any_slide=bool(slide.any()),
         )
 
-    def step(self, s0: State, t0: float, dt: float) -> tuple[State, int]:
+    def step(self, s0: State, t0: float, dt: float, impact_check: bool = False) -> tuple[State, int]:
         """Constant-average-acceleration step t0 → t0 + dt with direct iteration.
 
         Runs :func:`kernel.step` (``compiled``); when it reports that an active-set guess
         failed, the step is repeated here with the general resting solver.
+        ``impact_check`` (compiled only): first the :meth:`impact_pending` test, made by the
+        kernel on the kinematics it computes anyway.
 
         Raises
         ------
         StepRejected
             if a node ends the step deeper than ε below the pedestal surface (unless
             ``accept_any`` is set).
+        ImpactPending
+            with ``impact_check``, if :meth:`impact_pending` holds at the start (nothing
+            else was done).
         """
         t1 = t0 + dt
         tl0 = t0 + 1e-9 * dt  # one-sided load values at the step ends (pulse jumps)
@@ -808,6 +844,7 @@ class RigidBodySolver:
             prm[kernel.P_T0] = t0
             prm[kernel.P_DT] = dt
             prm[kernel.P_NO_PEN] = 1.0 if self.accept_any else 0.0
+            prm[kernel.P_IMPACT] = 1.0 if impact_check else 0.0
             ext = self._ext
             ext[0] = self._load(tl0)
             ext[1] = self._load(tl1)
@@ -836,6 +873,8 @@ class RigidBodySolver:
                 gaps,
                 info,
             )
+            if code == kernel.STEP_IMPACT:
+                raise ImpactPending()
             st = self.stats
             if code != kernel.STEP_GENERAL:
                 st.kernel_time += time.perf_counter() - t_lcp

@@ -47,11 +47,14 @@ from numba import njit
 
 __all__ = [
     "STEP_GENERAL",
+    "STEP_IMPACT",
     "STEP_OK",
     "STEP_REJECTED",
     "active_set_solve",
     "contact_problem",
     "impact_pending",
+    "kinematics",
+    "lcp_unique",
     "step",
     "support_hull",
 ]
@@ -59,6 +62,9 @@ __all__ = [
 STEP_OK = 0
 STEP_REJECTED = 1
 STEP_GENERAL = 2
+#: with ``prm[P_IMPACT] > 0``: an in-band node approaches faster than ``prm[P_VIMP]`` at the
+#: start of the step (the :func:`impact_pending` test); nothing else was done
+STEP_IMPACT = 3
 
 # parameter vector layout of :func:`step` (float64 array)
 P_MASS, P_MU_S, P_MU_D, P_EPS, P_ITER, P_ITOL, P_VSEP, P_VSLIP, P_ORTH, P_LREF = range(10)
@@ -66,7 +72,10 @@ P_T0, P_DT, P_PED_KIND, P_HX, P_HY, P_REDUCE, P_NO_PEN = range(10, 17)
 #: cos of the largest tilt for which the candidate nodes ``cand`` of :func:`step` are exact
 #: (−2: every node is a candidate); see :meth:`dynamics.RigidBodySolver.candidates`
 P_COS_CAND = 17
-N_PARAMS = 18
+#: P_IMPACT > 0: :func:`step` first makes the eq. 3.5 trigger test (``STEP_IMPACT``), with
+#: the impact velocity P_VIMP (m/s)
+P_IMPACT, P_VIMP = 18, 19
+N_PARAMS = 20
 # info vector layout (float64 array) filled by :func:`step`
 I_ITS, I_CONV, I_SOLVES, I_FAST, I_CAYLEY, I_NCONT, I_GMIN = range(7)
 I_F1, I_TAU1, I_OMEGA = 7, 10, 13
@@ -673,6 +682,117 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
     return False, f, a, st
 
 
+#: relative tolerance of :func:`lcp_unique`'s check (that of ``pivoting.VERIFY_RTOL``)
+UNIQUE_RTOL = 1e-9
+#: :func:`lcp_unique` answers only when λ_min(M) > this × λ_max(M) (then the selection of
+#: ``selection.solve_lcp_min_norm`` has no null space to choose in: its SVD rank test uses 1e-10)
+UNIQUE_COND = 1e-8
+#: :func:`lcp_unique` answers only up to this many unknowns (2ⁿ principal subsets)
+UNIQUE_MAX_N = 6
+
+
+@njit(cache=True)
+def lcp_unique(M, q):
+    """The LCP w = M z + q ≥ 0, z ≥ 0, zᵀw = 0 for a small, well-conditioned symmetric
+    positive definite M, by enumerating the principal subsets: (ok, z).
+
+    A positive definite M is a P-matrix, so the LCP has exactly one solution; every exact
+    method (the paper's Dantzig pivoting, :func:`pivoting.dantzig`) returns it, up to
+    round-off. ``ok`` is False — the caller then pivots — when n > ``UNIQUE_MAX_N``, when
+    M is not positive definite with λ_min > ``UNIQUE_COND`` λ_max (the bound used:
+    λ_min ≥ 1 / tr M⁻¹, λ_max ≤ tr M, from the Cholesky factor), or when no subset passes
+    the check (z ≥ −tol, w ≥ −tol on the free rows, tol = ``UNIQUE_RTOL`` × max(|q|, |M||z|)).
+    """
+    n = q.size
+    z = np.zeros(n)
+    if n == 0:
+        return True, z
+    if n > UNIQUE_MAX_N:
+        return False, z
+    # Cholesky M = L Lᵀ, then tr M⁻¹ = ‖L⁻¹‖_F²
+    L = np.zeros((n, n))
+    for j in range(n):
+        s = M[j, j]
+        for c in range(j):
+            s -= L[j, c] * L[j, c]
+        if not s > 0.0:
+            return False, z
+        L[j, j] = math.sqrt(s)
+        for i in range(j + 1, n):
+            s = M[i, j]
+            for c in range(j):
+                s -= L[i, c] * L[j, c]
+            L[i, j] = s / L[j, j]
+    tr = 0.0
+    for i in range(n):
+        tr += M[i, i]
+    linv = np.zeros((n, n))
+    for j in range(n):
+        linv[j, j] = 1.0 / L[j, j]
+        for i in range(j + 1, n):
+            s = 0.0
+            for c in range(j, i):
+                s -= L[i, c] * linv[c, j]
+            linv[i, j] = s / L[i, i]
+    tri = 0.0
+    for i in range(n):
+        for j in range(n):
+            tri += linv[i, j] * linv[i, j]
+    if not 1.0 / tri > UNIQUE_COND * tr:
+        return False, z
+    mmax = 0.0
+    qmax = 0.0
+    for i in range(n):
+        qmax = max(qmax, abs(q[i]))
+        for j in range(n):
+            mmax = max(mmax, abs(M[i, j]))
+    idx = np.empty(n, dtype=np.int64)
+    for mask in range(1 << n):
+        m = 0
+        for i in range(n):
+            if mask >> i & 1:
+                idx[m] = i
+                m += 1
+        zt = np.zeros(n)
+        if m > 0:
+            sub = np.empty((m, m))
+            rhs = np.empty(m)
+            for a in range(m):
+                rhs[a] = -q[idx[a]]
+                for b in range(m):
+                    sub[a, b] = M[idx[a], idx[b]]
+            x, solved = _lu_solve(sub, rhs)
+            if not solved:
+                continue
+            for a in range(m):
+                zt[idx[a]] = x[a]
+        zmax = 0.0
+        for i in range(n):
+            zmax = max(zmax, abs(zt[i]))
+        tol = UNIQUE_RTOL * max(1e-300, qmax, mmax * zmax)
+        good = True
+        for i in range(n):
+            if zt[i] < -tol:
+                good = False
+                break
+        if not good:
+            continue
+        for i in range(n):
+            if zt[i] < 0.0:
+                zt[i] = 0.0
+        for i in range(n):
+            if not (mask >> i & 1):
+                w = q[i]
+                for j in range(n):
+                    w += M[i, j] * zt[j]
+                if w < -tol:
+                    good = False
+                    break
+        if good:
+            return True, zt
+    return False, z
+
+
 # ----------------------------------------------------------------------------- one step
 @njit(cache=True)
 def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
@@ -699,6 +819,14 @@ def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
         vel[i, 1] = vx
         vel[i, 2] = vy
     return r, gaps, vel, w
+
+
+@njit(cache=True)
+def kinematics(sv, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
+    """:func:`_kinematics` of the packed state ``sv`` (18,) = (x, v, R row-major, l)."""
+    return _kinematics(
+        sv[0:3], sv[3:6], sv[6:15].reshape(3, 3), sv[15:18], inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy
+    )
 
 
 @njit(cache=True)
@@ -869,7 +997,8 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
 
     Returns
     -------
-    int : ``STEP_OK``, ``STEP_REJECTED`` or ``STEP_GENERAL`` (see the module docstring).
+    int : ``STEP_OK``, ``STEP_REJECTED``, ``STEP_GENERAL`` (see the module docstring) or
+    ``STEP_IMPACT``.
     """
     for j in range(N_INFO):
         info[j] = 0.0
@@ -886,6 +1015,13 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     a_load0, a_load1 = ext[0], ext[1]
     d0, vp0, ap0, ap1, d1 = ext[2], ext[3], ext[4], ext[5], ext[6]
     _, gaps0, vel0, w0 = _kinematics(x0, v0, R0, l0, inertia_inv, nodes, cand, d0, vp0, ped_kind, hx, hy)
+    if prm[P_IMPACT] > 0:
+        eps = prm[P_EPS]
+        v_imp = prm[P_VIMP]
+        for c in range(cand.size):
+            i = cand[c]
+            if gaps0[i] <= eps and vel0[i, 0] < -v_imp:
+                return STEP_IMPACT
     idx, slide, sdir, stab = contact_set(
         gaps0, vel0, nodes, cand, prm[P_EPS], prm[P_VSEP], prm[P_VSLIP], prm[P_MU_D], dt, prm[P_REDUCE] > 0
     )
