@@ -80,6 +80,7 @@ Ground motion
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -355,6 +356,12 @@ class ContactStats:
             "cone_violation_max": mx(self.cone),
             "max_penetration_m": self.max_penetration,
         }
+
+
+@functools.lru_cache(maxsize=64)
+def _tangential_columns(k: int) -> np.ndarray:
+    """Column ids (1, 4, …, 2, 5, …) of the x then y tangential unknowns of k contacts."""
+    return np.concatenate([np.arange(1, 3 * k, 3), np.arange(2, 3 * k, 3)])
 
 
 class StepRejected(Exception):
@@ -719,7 +726,7 @@ class RigidBodySolver:
             j = np.zeros(3 * k)
         # eq. 3.5 on the normal impulses, tangential impulses held fixed; selection among the
         # (for e = 0 and redundant contacts) non-unique solutions
-        qn = q[0::3] + A[0::3][:, np.r_[1 : 3 * k : 3, 2 : 3 * k : 3]] @ np.concatenate([j[1::3], j[2::3]])
+        qn = q[0::3] + A[0::3][:, _tangential_columns(k)] @ np.concatenate([j[1::3], j[2::3]])
         Ann = np.ascontiguousarray(A[0::3, 0::3])
         # a positive definite, well-conditioned A_nn (at most three non-collinear hull
         # contacts, the common case) has one solution: no selection to make, and the
@@ -761,14 +768,15 @@ class RigidBodySolver:
         self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
         self.stats.lcp_time += time.perf_counter() - t0
         vmin = float(vn.min())
+        nw, nw2 = float(np.linalg.norm(w)), float(np.linalg.norm(w2))
         info = {
             "v_n_min": vmin,
             "nodes": int(inband.size),
             "hull_nodes": int(k),
             "impulse_nodes": int(np.sum(jt[:, 0] > 0)),
-            "omega_before": float(np.linalg.norm(w)),
-            "omega_after": float(np.linalg.norm(w2)),
-            "ratio": float(np.linalg.norm(w2) / np.linalg.norm(w)) if np.linalg.norm(w) > 0 else float("nan"),
+            "omega_before": nw,
+            "omega_after": nw2,
+            "ratio": nw2 / nw if nw > 0 else float("nan"),
             "v_n_after_min": float(vpost[0::3].min()),
         }
         return s2, info

@@ -180,3 +180,59 @@ def test_support_hull_reduction_is_exact() -> None:
     assert red.ok and full.ok
     assert red.diagnostics["contacts_max"] == 64
     assert np.abs(red.rocking_angle() - full.rocking_angle()).max() <= 1e-9
+
+
+# ----------------------------------------------------------------------------- impacts (issue 23)
+@pytest.mark.parametrize("seed", range(10))
+def test_lcp_unique_is_the_pivoting_solution(seed: int) -> None:
+    """A positive definite A_nn (the impact LCP of one to three hull contacts): the enumerated
+    solution is Dantzig's (the LCP has exactly one), to round-off."""
+    from pbr_xval.reference.pivoting import dantzig
+
+    rng = np.random.default_rng(seed)
+    for _ in range(50):
+        n = int(rng.integers(1, 7))
+        g = rng.standard_normal((n, n))
+        M = g @ g.T + 0.1 * np.eye(n)
+        q = rng.standard_normal(n)
+        ok, z = kernel.lcp_unique(M, q)
+        ref = dantzig(M, q)
+        assert ok and ref.ok
+        np.testing.assert_allclose(z, ref.z, rtol=1e-9, atol=1e-12 * max(1.0, np.abs(ref.z).max()))
+        w = M @ z + q
+        assert z.min() >= 0 and w.min() >= -1e-9 * np.abs(q).max()
+
+
+def test_lcp_unique_declines_singular_and_large_problems() -> None:
+    """Redundant contacts (a singular A_nn: a selection is needed) and more than
+    UNIQUE_MAX_N unknowns go to the pivoting solver with its selection."""
+    J = np.array([[1.0, 0.0], [1.0, 0.0], [0.0, 1.0]])  # two coincident contacts
+    ok, _ = kernel.lcp_unique(J @ J.T, np.array([-1.0, -1.0, -1.0]))
+    assert not ok
+    n = kernel.UNIQUE_MAX_N + 1
+    ok, _ = kernel.lcp_unique(np.eye(n), -np.ones(n))
+    assert not ok
+
+
+def test_friction_residuals_compiled_equal_numpy() -> None:
+    """cone.friction_residuals (compiled) gives the NumPy expressions' values bit for bit."""
+    from pbr_xval.reference import cone
+
+    rng = np.random.default_rng(3)
+    for t in range(500):
+        k = int(rng.integers(1, 9))
+        f = rng.standard_normal(3 * k) * 10 ** rng.uniform(-5, 5)
+        a = rng.standard_normal(3 * k)
+        mu = rng.uniform(0, 1, size=k) if t % 2 else np.full(k, 0.6)
+        F, Acc = f.reshape(-1, 3), a.reshape(-1, 3)
+        fn, ft, an, at = F[:, 0], F[:, 1:], Acc[:, 0], Acc[:, 1:]
+        ftn, atn = np.linalg.norm(ft, axis=1), np.linalg.norm(at, axis=1)
+        want = [
+            float(max(0.0, -fn.min())),
+            float(max(0.0, -an.min())),
+            float(np.max(np.abs(fn * an))),
+            float(max(0.0, np.max(ftn - mu * fn))),
+            float(np.max(np.abs(atn * (mu * fn - ftn)))),
+            float(max(0.0, np.max(np.sum(ft * at, axis=1) + ftn * atn))),
+        ]
+        assert list(cone.friction_residuals(f, a, mu).values()) == want
