@@ -30,7 +30,7 @@ from pbr_xval.catalog import store
 from pbr_xval.catalog.tasks import ChunkSpec, build_chunks, execute_chunk, shard_chunks
 from pbr_xval.lifeline import PARENT_ENV, dask_preload_config, die_with_parent
 
-__all__ = ["SweepSummary", "run_chunks", "run_sweep"]
+__all__ = ["LocalPool", "SweepSummary", "run_chunks", "run_sweep"]
 
 
 @dataclass
@@ -121,20 +121,59 @@ def _run_isolated(spec_json: str, out: str) -> tuple[dict[str, Any] | None, str 
             return None, f"{type(exc).__name__}: {exc}"
 
 
+def _new_pool(workers: int) -> cf.ProcessPoolExecutor:
+    return cf.ProcessPoolExecutor(
+        max_workers=workers, mp_context=mp.get_context("spawn"), initializer=_init_worker,
+        initargs=(os.getpid(),),
+    )  # fmt: skip
+
+
+class LocalPool:
+    """A local process pool kept across several :func:`run_chunks` calls (``pool=``).
+
+    The adaptive ensemble runs one batch of members after another: with one pool its worker
+    processes start (spawn, imports, the store's writer) once, and keep what they cache (engine
+    instances, compiled models), instead of once per batch. A pool broken by a crashing worker
+    is replaced (:meth:`renew`). Use as a context manager; it shuts the workers down on exit.
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = int(workers or max(1, (os.cpu_count() or 1)))
+        self._pool: cf.ProcessPoolExecutor | None = None
+
+    def get(self) -> cf.ProcessPoolExecutor:
+        if self._pool is None:
+            self._pool = _new_pool(self.workers)
+        return self._pool
+
+    def renew(self) -> cf.ProcessPoolExecutor:
+        if self._pool is not None:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = None
+        return self.get()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self) -> LocalPool:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
 def _local(
-    todo: list[ChunkSpec], out: str, workers: int, summary: SweepSummary, tick: Callable[[], None]
-) -> None:
-    ctx = mp.get_context("spawn")
+    todo: list[ChunkSpec], out: str, workers: int, summary: SweepSummary, tick: Callable[[], None],
+    shared: LocalPool | None = None,
+) -> None:  # fmt: skip
     queue = list(todo)
+    if shared is not None:
+        workers = shared.workers
     window = 2 * workers
     suspects: list[ChunkSpec] = []
-
-    def new_pool() -> cf.ProcessPoolExecutor:
-        return cf.ProcessPoolExecutor(
-            max_workers=workers, mp_context=ctx, initializer=_init_worker, initargs=(os.getpid(),)
-        )
-
-    pool = new_pool()
+    pool = shared.get() if shared is not None else _new_pool(workers)
     running: dict[cf.Future[dict[str, Any]], ChunkSpec] = {}
     try:
         while queue or running:
@@ -171,7 +210,8 @@ def _local(
                     except Exception:
                         suspects.append(spec)
                 running.clear()
-                pool.shutdown(wait=False, cancel_futures=True)
+                if shared is None:  # (a shared pool is shut down by renew() below)
+                    pool.shutdown(wait=False, cancel_futures=True)
                 with cf.ThreadPoolExecutor(max_workers=workers) as tp:
                     results = list(tp.map(lambda s: (s, _run_isolated(s.to_json(), out)), suspects))
                 suspects = []
@@ -189,9 +229,10 @@ def _local(
                             }
                         )
                     tick()
-                pool = new_pool()
+                pool = shared.renew() if shared is not None else _new_pool(workers)
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if shared is None:
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 # ------------------------------------------------------------------ dask
@@ -315,8 +356,13 @@ def run_chunks(
     progress: bool = True,
     console: Any = None,
     description: str = "chunks",
+    pool: LocalPool | None = None,
 ) -> SweepSummary:
-    """Run ``chunks`` into the store at ``out`` (skipping finished ones); returns a summary."""
+    """Run ``chunks`` into the store at ``out`` (skipping finished ones); returns a summary.
+
+    ``pool``: the local executor's worker processes, kept by the caller across calls
+    (:class:`LocalPool`; its worker count then applies); by default a pool per call.
+    """
     out = str(Path(out))
     Path(out).mkdir(parents=True, exist_ok=True)
     workers = int(workers or max(1, (os.cpu_count() or 1)))
@@ -366,7 +412,7 @@ def run_chunks(
 
         if todo:
             if executor == "local":
-                _local(todo, out, workers, summary, tick)
+                _local(todo, out, workers, summary, tick, pool)
             elif executor == "dask":
                 _dask(todo, out, workers, scheduler, summary, tick, say)
             elif executor == "inline":  # in this process (debugging, profiling)

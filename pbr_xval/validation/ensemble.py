@@ -174,11 +174,26 @@ def _run_adaptive(
     **kw: Any,
 ) -> tuple[list[Any], Any]:
     """Batches of members for the tests still undecided; (every chunk run, summed summary)."""
+    from pbr_xval.catalog.sweep import LocalPool
+
+    run_kw = {k: kw.pop(k) for k in ("executor", "workers", "progress", "console")}
+    if run_kw.get("executor", "local") != "local":
+        return _adaptive_batches(campaign, motions, scn, per_test, out, half_width, batch, run_kw, kw)
+    # one pool for every batch: the workers start once and keep their caches
+    with LocalPool(run_kw.get("workers")) as pool:
+        return _adaptive_batches(
+            campaign, motions, scn, per_test, out, half_width, batch, {**run_kw, "pool": pool}, kw
+        )
+
+
+def _adaptive_batches(
+    campaign: Any, motions: dict[str, Any], scn: Any, per_test: dict[str, list[Member]], out: Path,
+    half_width: float, batch: int, run_kw: dict[str, Any], kw: dict[str, Any],
+) -> tuple[list[Any], Any]:  # fmt: skip
     from pbr_xval.catalog.predict import estimate, stop_rule
     from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
 
-    run_kw = {k: kw.pop(k) for k in ("executor", "workers", "progress", "console")}
     n_max = max((len(v) for v in per_test.values()), default=0)
     active = [t for t in campaign.tests]
     all_chunks: list[Any] = []
