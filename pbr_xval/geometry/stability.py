@@ -29,6 +29,8 @@ A pose is **at rest** when the COM's vertical passes strictly inside the support
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 from scipy.optimize import brentq
 from scipy.spatial import ConvexHull
@@ -52,11 +54,25 @@ def _rot_about(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * (k @ k)
 
 
+#: hull vertex indices by point-set content (ensemble members and campaign tests re-use one mesh)
+_HULL_INDEX: dict[bytes, np.ndarray] = {}
+
+
 def hull_vertices(vertices: np.ndarray) -> np.ndarray:
-    """Convex-hull vertices (k, 3) of a point set (n, 3)."""
-    v = np.asarray(vertices, dtype=float)
+    """Convex-hull vertices (k, 3) of a point set (n, 3).
+
+    The hull's vertex indices are memoised on the points' bytes (a run computes the hull of one
+    mesh some twenty times: scene, stability, diagnostics); above 16 points, a new array each call.
+    """
+    v = np.ascontiguousarray(vertices, dtype=float)
     if len(v) > 16:
-        v = v[ConvexHull(v).vertices]
+        key = hashlib.sha256(v.tobytes()).digest() + repr(v.shape).encode()
+        idx = _HULL_INDEX.get(key)
+        if idx is None:
+            if len(_HULL_INDEX) > 64:
+                _HULL_INDEX.clear()
+            idx = _HULL_INDEX[key] = ConvexHull(v).vertices
+        v = v[idx]
     return v
 
 

@@ -282,9 +282,33 @@ def _read_source(src: Any, resolve: Callable[[str], Any], key: str) -> Record:
                 f"not to a record in format {fmt!r}"
             )
     try:
-        return read_record(path, format=fmt, **kw)
+        return _read_cached(path, fmt, kw, read_record)
     except MotionFileError as exc:
         raise RecordSpecError(f"key '{key}.path': {exc}") from None
+
+
+#: records read, by (path, content SHA-256, format, reader arguments): an ensemble's members and a
+#: campaign's reruns read one file many times in one process (parsing a table is ~30 ms)
+_RECORDS: dict[tuple[Any, ...], Record] = {}
+
+
+def _read_cached(path: Any, fmt: str, kw: dict[str, Any], read: Callable[..., Record]) -> Record:
+    """``read(path, format=fmt, **kw)``, memoised on the file's content; every caller gets its own copy."""
+    import copy
+
+    from pbr_xval.hashing import file_sha256
+
+    try:
+        key = (str(path), file_sha256(path), fmt, repr(sorted(kw.items())))
+    except OSError:  # a missing file: the reader's own error
+        return read(path, format=fmt, **kw)
+    rec = _RECORDS.get(key)
+    if rec is None:
+        rec = read(path, format=fmt, **kw)
+        if len(_RECORDS) > 32:
+            _RECORDS.clear()
+        _RECORDS[key] = rec
+    return copy.deepcopy(rec)
 
 
 def record_from_spec(
