@@ -133,8 +133,10 @@ def basal_nodes(
     ``count`` nodes (always including the polygon's corners), the basal patch a seed-style
     node model would use.
     """
+    from pbr_xval.geometry.stability import hull_vertices
+
     v = np.asarray(vertices, dtype=float)
-    hv = v[ConvexHull(v).vertices]
+    hv = hull_vertices(v)  # memoised: every compile of a scene with this mesh
     if count is None:
         return hv[hv[:, 2] < com[2]]
     zmin = hv[:, 2].min()
