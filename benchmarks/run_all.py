@@ -84,7 +84,7 @@ def reference_part(quick: bool) -> None:
 def threshold_part() -> None:
     from pbr_xval.engine import EngineNotAvailable, get_engine
     from pbr_xval.scenario import load_scenario
-    from pbr_xval.study.threshold import find_threshold
+    from pbr_xval.study.threshold_search import find_threshold
 
     print("== simulations per threshold (find_threshold, examples/housner_halfsine.toml, rel_tol 1e-3)")
     scn = load_scenario(HERE.parent / "examples" / "housner_halfsine.toml")

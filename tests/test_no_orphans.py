@@ -176,7 +176,7 @@ def nap(seconds: float, marker: str) -> None:
 """
 
 # the other pools: the study workers (run_many: thresholds, histories, extremes, trade-off) and a
-# process pool with the initializer of the fragility-map pool (pbr_xval.study.fragility)
+# process pool with the initializer of the fragility-map pool (pbr_xval.study.fragility_map)
 DRIVER = """
 import concurrent.futures as cf, multiprocessing as mp, os, sys
 sys.path.insert(0, sys.argv[1])

@@ -26,7 +26,7 @@ cat > setup.cfg <<'EOF'
 source_paths=pbr_xval
 only_mutate=
     pbr_xval/stepping.py
-    pbr_xval/study/threshold.py
+    pbr_xval/study/threshold_search.py
     pbr_xval/validation/metrics.py
 also_copy=
     examples/

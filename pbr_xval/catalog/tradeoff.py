@@ -1,7 +1,7 @@
 """Speed–accuracy trade against experiments: ``pbr-xval choose --campaign``.
 
 Every candidate setting (engine × profile × timestep × collision geometry) runs the campaign's
-tests through the validation machinery (:mod:`pbr_xval.validation.runner`: corrected table
+tests through the validation machinery (:mod:`pbr_xval.validation.execution`: corrected table
 records, one chunk per test, the resumable Parquet store shared by every setting and by
 ``pbr-xval validate``). Each setting gets
 
@@ -185,7 +185,7 @@ def run_tradeoff(
     """
     from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
-    from pbr_xval.validation.runner import build_validation_chunks, prepare_motions
+    from pbr_xval.validation.execution import build_validation_chunks, prepare_motions
 
     motions = prepare_motions(campaign, baseline, work / "motions")
     per: list[list[Any]] = []

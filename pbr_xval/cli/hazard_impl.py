@@ -62,7 +62,7 @@ def fragility_command(
     from pbr_xval.catalog import CatalogError, load_catalog, load_results
     from pbr_xval.errors import OutputPathError
     from pbr_xval.hazard.fit import compare_ims, fit_sweep, sweep_intensity_measures
-    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.fragility_functions import LognormalFragility
     from pbr_xval.hazard.ims import oq_factor, oq_unit
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
 
@@ -160,8 +160,8 @@ def constrain_command(
     from pbr_xval.atomic import check_output_dir
     from pbr_xval.errors import OutputPathError
     from pbr_xval.hazard.config import load_config
+    from pbr_xval.hazard.constrain_report import write_report
     from pbr_xval.hazard.ims import G, HazardInputError
-    from pbr_xval.hazard.report import write_report
     from pbr_xval.hazard.survival import constrain
 
     con = _console(console)

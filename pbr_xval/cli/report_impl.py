@@ -224,7 +224,7 @@ def report_command(
     from rich.table import Table
 
     from pbr_xval.report import write_report
-    from pbr_xval.study.spec import StudyFileError, is_failed, load_study_spec, run_study
+    from pbr_xval.study.study_file import StudyFileError, is_failed, load_study_spec, run_study
 
     con = _console(console)
     study_path = Path(study_path)

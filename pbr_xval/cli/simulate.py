@@ -251,7 +251,7 @@ def threshold(
     from pbr_xval.atomic import check_output_file, write_text_atomic
     from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable
     from pbr_xval.errors import OutputPathError
-    from pbr_xval.study.threshold import find_threshold
+    from pbr_xval.study.threshold_search import find_threshold
 
     scn = _load(scenario)
     json_path = None

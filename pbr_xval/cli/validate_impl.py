@@ -47,8 +47,8 @@ def validate_command(
     from pbr_xval.errors import OutputPathError
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
-    from pbr_xval.validation.report import brier_lines, evaluate, f1_lines, write_report
-    from pbr_xval.validation.runner import run_campaign
+    from pbr_xval.validation.campaign_report import brier_lines, evaluate, f1_lines, write_report
+    from pbr_xval.validation.execution import run_campaign
 
     console = console or Console()
     err = Console(stderr=True)
@@ -169,7 +169,7 @@ def validate_command(
     wall = time.perf_counter() - t0
     res = evaluate(camp, rows, motions, engines, folds=folds, baseline_source=baseline_source)
     if transfer:  # issue 22: the transferred logistic baseline, fitted on another specimen
-        from pbr_xval.validation.report import add_transferred
+        from pbr_xval.validation.campaign_report import add_transferred
 
         try:
             add_transferred(res, scenario, transfer, baseline=base)
@@ -282,7 +282,7 @@ def _check_scene(
     from pbr_xval.scenario import scenario_from_dict
     from pbr_xval.scene import compile_scene
     from pbr_xval.validation.campaign import baseline_correct
-    from pbr_xval.validation.runner import scenario_rock
+    from pbr_xval.validation.execution import scenario_rock
 
     first = camp.tests[0]
     raw, dt = first.raw_acceleration()

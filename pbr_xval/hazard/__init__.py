@@ -1,6 +1,6 @@
 """From fragility to hazard: what surviving precarious rocks say about shaking that never happened.
 
-* :mod:`~pbr_xval.hazard.fragility` — lognormal / step / discrete fragility functions and the
+* :mod:`~pbr_xval.hazard.fragility_functions` — lognormal / step / discrete fragility functions and the
   (θ, β) ↔ linear-moment conversion of OpenQuake's NRML.
 * :mod:`~pbr_xval.hazard.fit` — multiple-stripe fragility fits of a sweep on PGA, PGV, SA(T) with
   profile-likelihood intervals, the vector fragility on (PGA, PGV/PGA), the IM comparison.
@@ -12,7 +12,7 @@
   hazard, with variance shares (hazard branch, fragility, exposure age).
 * :mod:`~pbr_xval.hazard.vector` — the vector fragility (PGA × PGV/PGA) as a PGA fragility under a
   stated model of PGV/PGA given PGA.
-* :mod:`~pbr_xval.hazard.report` and :mod:`~pbr_xval.hazard.example` — the ``pbr-xval constrain``
+* :mod:`~pbr_xval.hazard.constrain_report` and :mod:`~pbr_xval.hazard.example` — the ``pbr-xval constrain``
   report and its synthetic example.
 
 See ``docs/hazard.md``.
@@ -27,7 +27,7 @@ from pbr_xval.hazard.curves import (
     read_hazard_curve,
     read_hazard_curves,
 )
-from pbr_xval.hazard.fragility import (
+from pbr_xval.hazard.fragility_functions import (
     DiscreteFragility,
     LognormalFragility,
     StepFragility,

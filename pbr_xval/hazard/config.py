@@ -321,7 +321,7 @@ def _draws_csv(f: Path, w: str, frag: Any) -> dict[str, Any] | None:
     the file has another layout."""
     import csv
 
-    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.fragility_functions import LognormalFragility
 
     head = f.read_text(encoding="utf-8-sig").splitlines()[:1]
     cols = [c.strip() for c in head[0].split(",")] if head else []
@@ -348,7 +348,7 @@ def _draws_csv(f: Path, w: str, frag: Any) -> dict[str, Any] | None:
 
 def _draws(r: dict[str, Any], w: str, base: Path, frag: Any, unc: str | None, n: int, seed: int) -> Any:
     """The rock's fragility draws (or None: the fragility taken as known)."""
-    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.fragility_functions import LognormalFragility
     from pbr_xval.hazard.uncertainty import FragilityDraws, draws_from_profile
 
     if "ensemble" in r:

@@ -67,7 +67,7 @@ def _stripes(theta: float, beta: float, rng: np.random.Generator) -> tuple[np.nd
 def write_example(out: str | Path) -> Path:
     """Write the synthetic inputs into ``out/inputs`` and return the path of ``constrain.toml``."""
     from pbr_xval.catalog.fragility import fit_lognormal
-    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.fragility_functions import LognormalFragility
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
 
     d = Path(out) / "inputs"

@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from pbr_xval.hazard.fragility import (
+from pbr_xval.hazard.fragility_functions import (
     DiscreteFragility,
     Fragility,
     LognormalFragility,

@@ -34,7 +34,7 @@ import numpy as np
 from scipy import integrate, stats
 
 from pbr_xval.hazard.curves import HazardCurve
-from pbr_xval.hazard.fragility import Fragility, LognormalFragility, StepFragility, UnionFragility
+from pbr_xval.hazard.fragility_functions import Fragility, LognormalFragility, StepFragility, UnionFragility
 from pbr_xval.hazard.ims import HazardInputError
 
 __all__ = [

@@ -40,7 +40,7 @@ import numpy as np
 from scipy import stats
 
 from pbr_xval.hazard.curves import HazardCurve
-from pbr_xval.hazard.fragility import Fragility, LognormalFragility
+from pbr_xval.hazard.fragility_functions import Fragility, LognormalFragility
 from pbr_xval.hazard.ims import HazardInputError
 from pbr_xval.hazard.survival import (
     Age,

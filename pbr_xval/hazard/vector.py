@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from pbr_xval.hazard.fragility import LognormalFragility
+from pbr_xval.hazard.fragility_functions import LognormalFragility
 from pbr_xval.hazard.ims import G, HazardInputError
 
 __all__ = ["PgvPgaModel", "VectorFragility"]

@@ -57,20 +57,12 @@ LONG_TABLE_ROWS = 12
 
 
 # ------------------------------------------------------------------ atomic i/o
-def atomic_write_bytes(path: Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically (see :mod:`pbr_xval.atomic`)."""
-    return write_bytes_atomic(path, data)
+#: old names of :func:`pbr_xval.atomic.write_bytes_atomic` and :func:`~pbr_xval.atomic.write_text_atomic`
+#: (kept so existing imports work; new code uses the :mod:`pbr_xval.atomic` names)
+atomic_write_bytes = write_bytes_atomic
+atomic_write_text = write_text_atomic
 
 
-def atomic_write_text(path: Path, text: str) -> Path:
-    return write_text_atomic(path, text)
-
-
-def _atomic_parquet(path: Path, table: Any) -> Path:
-    return write_parquet_atomic(path, table)
-
-
-# ------------------------------------------------------------------ helpers
 def _slug(s: str) -> str:
     s = re.sub(r"[^A-Za-z0-9_.-]+", "_", s.strip()).strip("_.")
     return s or "x"
@@ -424,7 +416,7 @@ def write_report(
             for tname, df in (r.tables or {}).items():
                 stem = _unique(f"{prefix}_{_slug(tname)}", used)
                 csv = f"{stem}.csv"
-                atomic_write_bytes(tmp / csv, _csv_bytes(df))
+                write_bytes_atomic(tmp / csv, _csv_bytes(df))
                 pq_name = f"data/{stem}.parquet"
                 meta = {
                     "report": prov,
@@ -432,7 +424,7 @@ def write_report(
                     "study_provenance": {k: v for k, v in rprov.items() if k != "traceback"},
                 }
                 try:
-                    _atomic_parquet(tmp / pq_name, _arrow_table(df, meta))
+                    write_parquet_atomic(tmp / pq_name, _arrow_table(df, meta))
                     parquet_files.append(pq_name)
                 except Exception as exc:  # a table pyarrow cannot store must not sink the report
                     sec["notes"].append(md_inline(f"table {tname!r} could not be written as Parquet: {exc}"))
@@ -459,7 +451,7 @@ def write_report(
                     csv = table_files[fig.table]["csv"]
                 elif df is not None:
                     csv = f"{stem}.csv"
-                    atomic_write_bytes(tmp / csv, _csv_bytes(df))
+                    write_bytes_atomic(tmp / csv, _csv_bytes(df))
                 else:
                     # no data table: link the caption to nothing rather than to a missing file
                     csv = ""
@@ -484,7 +476,7 @@ def write_report(
         asset_names: list[str] = []
         for name, src in (assets or {}).items():
             safe = _unique(_slug(name), used)
-            atomic_write_bytes(tmp / safe, Path(src).read_bytes())
+            write_bytes_atomic(tmp / safe, Path(src).read_bytes())
             asset_names.append(safe)
 
         scen = _scenarios(results, prov)
@@ -493,7 +485,7 @@ def write_report(
         prov["scenarios"] = scen
         prov["engines"] = engines
         prov_json = _dumps(prov)
-        atomic_write_text(tmp / "provenance.json", prov_json + "\n")
+        write_text_atomic(tmp / "provenance.json", prov_json + "\n")
 
         env = Environment(autoescape=True, trim_blocks=False, lstrip_blocks=False, keep_trailing_newline=True)
         tpl = env.from_string(INDEX_HTML)
@@ -513,7 +505,7 @@ def write_report(
         if verdict.cases:
             import pandas as pd
 
-            atomic_write_bytes(tmp / "verdict.csv", _csv_bytes(pd.DataFrame(verdict.rows())))
+            write_bytes_atomic(tmp / "verdict.csv", _csv_bytes(pd.DataFrame(verdict.rows())))
         studies = [
             {
                 "sv": sv,
@@ -541,8 +533,8 @@ def write_report(
             assets=asset_names,
             parquet_files=parquet_files,
         )
-        atomic_write_text(tmp / "index.html", html_text)
-        atomic_write_text(
+        write_text_atomic(tmp / "index.html", html_text)
+        write_text_atomic(
             tmp / "summary.md", summary_markdown(results, prov, title=title, notes=notes, verdict=verdict)
         )
 

@@ -4,7 +4,7 @@ A rock is not equally fragile in every direction (the seed paper asks for the se
 direction, period, amplitude and friction). For each shaking azimuth φ the study sets
 ``excitation.azimuth_deg = φ`` and, for every engine, searches the minimum toppling value of
 ``param`` (a pulse amplitude or PGV at fixed pulse shape, a record's ``target_pga``,
-``target_pgv`` or ``scale``) with :func:`pbr_xval.study.threshold.find_threshold`.
+``target_pgv`` or ``scale``) with :func:`pbr_xval.study.threshold_search.find_threshold`.
 
 Every level is also expressed as the peak ground acceleration (PGA, m/s²) of the motion at that
 level, and compared with the quasi-static uplift bound
@@ -128,7 +128,7 @@ def run(
     import pandas as pd
 
     from pbr_xval.scene import compile_scene
-    from pbr_xval.study.threshold import find_threshold
+    from pbr_xval.study.threshold_search import find_threshold
 
     t_start = time.perf_counter()
     unit = _unit(config.param)

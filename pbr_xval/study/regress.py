@@ -13,7 +13,7 @@ settings   optional JSON object of engine setting overrides, e.g. ``{"variant": 
 note       optional free text (kept by ``--update``)
 ========== ==============================================================================
 
-:func:`regress` re-measures every row with :func:`~pbr_xval.study.threshold.find_threshold`
+:func:`regress` re-measures every row with :func:`~pbr_xval.study.threshold_search.find_threshold`
 on ``[threshold − m·tol, threshold + m·tol]`` (m = :data:`MARGIN_TOLS`), bisected until the
 bracket is a tenth of the tolerance, and reports ``expected ± tol``, the measured value, the
 difference and PASS/FAIL per row. ``fast=True`` only checks that the rock stands at
@@ -267,7 +267,7 @@ def read_golden(path: str | Path) -> tuple[list[GoldenRow], list[str]]:
 def _measure(row: GoldenRow, base: Path, fast: bool, wide: bool) -> RowResult:
     from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable, get_engine
     from pbr_xval.scenario import ScenarioError, load_scenario
-    from pbr_xval.study.threshold import find_threshold
+    from pbr_xval.study.threshold_search import find_threshold
 
     t0 = time.perf_counter()
     try:
@@ -413,7 +413,7 @@ def _round_for(tol: float, value: float) -> str:
 
 def rewrite_golden(golden: str | Path, measured: Sequence[RowResult]) -> Path:
     """Write ``measured`` thresholds into ``golden`` (atomically), keeping everything else."""
-    from pbr_xval.atomic import write_text_atomic as atomic_write_text
+    from pbr_xval.atomic import write_text_atomic
 
     golden = Path(golden)
     rows, header = read_golden(golden)
@@ -427,5 +427,5 @@ def rewrite_golden(golden: str | Path, measured: Sequence[RowResult]) -> Path:
         if r is not None and r.measured is not None:
             raw["threshold"] = _round_for(row.tolerance, r.measured)
         w.writerow({k: raw.get(k, "") for k in header})
-    atomic_write_text(golden, buf.getvalue())
+    write_text_atomic(golden, buf.getvalue())
     return golden

@@ -1,6 +1,6 @@
 """Threshold study: every engine's toppling threshold(s) of one scenario parameter.
 
-For each engine :func:`~pbr_xval.study.threshold.find_threshold` scans the parameter on a
+For each engine :func:`~pbr_xval.study.threshold_search.find_threshold` scans the parameter on a
 geometric grid and bisects *every* transition (overturning is not monotonic in amplitude,
 Zhang & Makris 2001), so the study reports every toppling band, not only the minimum. The
 minimum is compared with an independent reference value (e.g. Housner's nonlinear 5.638 m/s²)
@@ -28,7 +28,7 @@ from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.study.base import Figure, StudyResult
-from pbr_xval.study.threshold import ThresholdResult, find_threshold
+from pbr_xval.study.threshold_search import ThresholdResult, find_threshold
 
 __all__ = ["ThresholdsConfig", "param_unit", "run"]
 

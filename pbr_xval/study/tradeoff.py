@@ -2,7 +2,7 @@
 
 For every engine × settings point (time step × profile × solver iterations × extra variants)
 the toppling threshold of ``param`` is found by a narrow geometric scan plus bisection
-(:func:`pbr_xval.study.threshold.find_threshold`, only the first stand→topple transition)
+(:func:`pbr_xval.study.threshold_search.find_threshold`, only the first stand→topple transition)
 in a worker process (:mod:`pbr_xval.study.workers`: a crash or hang is a recorded point, not
 a dead study). Each point gets its relative error against the reference (an analytical value
 or the reference engine's threshold) and its cost: wall time per simulation and for the
@@ -167,7 +167,7 @@ def threshold_point(
     rel_tol: float,
 ) -> dict[str, Any]:
     """One threshold search (runs in a worker); JSON-able result."""
-    from pbr_xval.study.threshold import find_threshold
+    from pbr_xval.study.threshold_search import find_threshold
     from pbr_xval.study.workers import _scenario_from_payload, resolve_engine
 
     scn = _scenario_from_payload(scenario, source)

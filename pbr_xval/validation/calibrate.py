@@ -110,8 +110,8 @@ def cross_validate(
 
 def main(argv: list[str] | None = None) -> int:
     from pbr_xval.scenario import load_scenario
-    from pbr_xval.validation.report import evaluate
-    from pbr_xval.validation.runner import run_campaign
+    from pbr_xval.validation.campaign_report import evaluate
+    from pbr_xval.validation.execution import run_campaign
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("campaign", type=Path)
@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     ok = held.notna()
     cv = score(obs[ok].astype(bool), held[ok].astype(bool))
     # baselines on the same folds (rules refitted per fold on the training records)
-    from pbr_xval.validation.runner import prepare_motions
+    from pbr_xval.validation.execution import prepare_motions
 
     motions = prepare_motions(camp, baseline, a.out / "motions")
     res = evaluate(camp, pd.DataFrame(columns=["test", "engine"]), motions, [], folds=a.folds)

@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     from pbr_xval.validation import load_campaign
     from pbr_xval.validation.campaign import Baseline
     from pbr_xval.validation.ensemble import build_ensemble_chunks
-    from pbr_xval.validation.runner import prepare_motions
+    from pbr_xval.validation.execution import prepare_motions
 
     scn = load_scenario(a.scenario)
     spec = ensemble_spec(scn)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from typing import Any, ClassVar
 
-from pbr_xval.analytical.engines import HousnerEngine
+from pbr_xval.analytical.adapters import HousnerEngine
 
 
 class CrashEngine(HousnerEngine):

@@ -20,7 +20,7 @@ import pytest
 from pydantic import BaseModel, ConfigDict
 
 from pbr_xval.report import write_report
-from pbr_xval.study import spec as spec_mod
+from pbr_xval.study import study_file as spec_mod
 from pbr_xval.study.base import Figure, StudyResult
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"

@@ -183,8 +183,8 @@ def reports(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
 
 
 def _validate_page(folder: Path) -> Path:
+    from pbr_xval.validation.campaign_report import ValidationResult, write_report
     from pbr_xval.validation.metrics import score
-    from pbr_xval.validation.report import ValidationResult, write_report
 
     rng = np.random.default_rng(3)
     n = 30

@@ -68,7 +68,7 @@ def test_every_direction_topples_at_or_above_the_uplift_bound(scanned, engine):
 def test_azimuth_study_file_runs_through_the_study_runner(tmp_path):
     if not _engine_available("pybullet"):
         pytest.skip("pybullet not installed")
-    from pbr_xval.study.spec import STUDY_MODULES, load_study_spec, run_study
+    from pbr_xval.study.study_file import STUDY_MODULES, load_study_spec, run_study
 
     assert "azimuth" in STUDY_MODULES
     (tmp_path / "s.toml").write_text(
@@ -90,7 +90,7 @@ def test_azimuth_study_file_runs_through_the_study_runner(tmp_path):
 
 def test_bad_azimuth_configs_are_refused_before_simulating(scanned, tmp_path):
     from pbr_xval.study.azimuth import AzimuthConfig, run
-    from pbr_xval.study.spec import StudyFileError, study_spec_from_dict
+    from pbr_xval.study.study_file import StudyFileError, study_spec_from_dict
 
     with pytest.raises(ValueError, match="range_over_bound"):
         AzimuthConfig(range_over_bound=(2.0, 1.0))
@@ -119,7 +119,7 @@ def test_example_azimuth_study_file_for_sp1_is_valid():
     sp1 = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "scans" / "SP1_mesh.obj"
     if not sp1.is_file():
         pytest.skip(f"SP1 scan not found at {sp1}")
-    from pbr_xval.study.spec import load_study_spec
+    from pbr_xval.study.study_file import load_study_spec
 
     spec = load_study_spec(EXAMPLES / "studies" / "azimuth_sp1.toml")
     assert spec.studies[0].type == "azimuth"

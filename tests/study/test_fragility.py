@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from pbr_xval.scenario import load_scenario
-from pbr_xval.study import fragility
+from pbr_xval.study import fragility_map as fragility
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "echo_cliff_like_sawtooth.toml"
 GRID = {"x_values": [0.5, 2.5, 6.0], "y_values": [1.0, 2.0, 3.0]}

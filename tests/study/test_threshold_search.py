@@ -22,7 +22,7 @@ from pbr_xval.conformance import free_rocking_scenario, housner_scenario
 from pbr_xval.engine import EngineSettingsError
 from pbr_xval.runner import run_scenario
 from pbr_xval.scenario import load_scenario
-from pbr_xval.study.threshold import find_threshold
+from pbr_xval.study.threshold_search import find_threshold
 
 ROOT = Path(__file__).resolve().parents[2]
 HOUSNER = ROOT / "examples" / "housner_halfsine.toml"
@@ -98,7 +98,7 @@ def test_uplift_bound_only_for_a_parameter_that_scales_the_pga() -> None:
     would be wrong for a frequency); a motion without a stated PGA is sampled for it."""
     import types
 
-    from pbr_xval.study.threshold import _pga, uplift_lower_bound
+    from pbr_xval.study.threshold_search import _pga, uplift_lower_bound
 
     scn = load_scenario(HOUSNER)
     assert uplift_lower_bound(scn, "excitation.amplitude") == pytest.approx(G / 3, rel=1e-9)

@@ -80,7 +80,7 @@ def test_documented_rule_f1_on_the_shared_campaign(specimen: int) -> None:
     """The rule columns of docs/validation.md's results table, through the scoring `validate` uses
     (lab-sheet intensity measures, 4 record folds): exact, the data and the folds are fixed."""
     from pbr_xval.validation.campaign import load_campaign
-    from pbr_xval.validation.report import evaluate
+    from pbr_xval.validation.campaign_report import evaluate
 
     camp = load_campaign(SHAKE_TABLE, specimen)
     # the rules read the lab sheet, not the records: the motions' own measures are not needed

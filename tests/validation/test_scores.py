@@ -229,7 +229,7 @@ def test_documented_logistic_baselines_on_the_shared_campaign(specimen: int) -> 
 
 # ------------------------------------------------------------------ report pieces
 def _result_with_probabilities():
-    from pbr_xval.validation.report import ValidationResult, add_model
+    from pbr_xval.validation.campaign_report import ValidationResult, add_model
 
     oc = pd.DataFrame(
         {
@@ -250,7 +250,7 @@ def _result_with_probabilities():
 
 
 def test_add_model_and_brier_lines() -> None:
-    from pbr_xval.validation.report import brier_lines, f1_lines
+    from pbr_xval.validation.campaign_report import brier_lines, f1_lines
 
     res = _result_with_probabilities()
     ens = res.scores.set_index("model").loc["ensemble"]
@@ -264,7 +264,7 @@ def test_add_model_and_brier_lines() -> None:
 def test_probabilistic_figures_carry_units() -> None:
     import matplotlib.pyplot as plt
 
-    from pbr_xval.validation.report import probability_plane_figure, reliability_figure
+    from pbr_xval.validation.campaign_report import probability_plane_figure, reliability_figure
 
     res = _result_with_probabilities()
     fig = reliability_figure(res)
@@ -283,8 +283,8 @@ def test_probabilistic_figures_carry_units() -> None:
 
 def test_evaluate_scores_every_model_probabilistically(box_campaign_files, tmp_path) -> None:
     from pbr_xval.validation.campaign import Baseline, load_campaign
-    from pbr_xval.validation.report import PROB_COLUMNS, evaluate, write_report
-    from pbr_xval.validation.runner import prepare_motions
+    from pbr_xval.validation.campaign_report import PROB_COLUMNS, evaluate, write_report
+    from pbr_xval.validation.execution import prepare_motions
 
     csv, _, observed = box_campaign_files
     camp = load_campaign(csv, 1)

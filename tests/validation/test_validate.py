@@ -57,7 +57,7 @@ def test_validate_synthetic_box_campaign(
 def test_plane_figure_axes_carry_units() -> None:
     import matplotlib.pyplot as plt
 
-    from pbr_xval.validation.report import ValidationResult, _plane_figure
+    from pbr_xval.validation.campaign_report import ValidationResult, _plane_figure
 
     oc = pd.DataFrame(
         {"pga_m_s2": [1.0, 3.0], "pgv_over_pga_s": [0.1, 0.2], "observed": [0, 1], "pred_e": [0, 0]}

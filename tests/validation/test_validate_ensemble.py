@@ -83,7 +83,7 @@ def test_per_test_draws_fresh_members_for_every_test(
     from pbr_xval.uncertainty import ensemble_spec
     from pbr_xval.validation.campaign import Baseline, load_campaign
     from pbr_xval.validation.ensemble import build_ensemble_chunks
-    from pbr_xval.validation.runner import prepare_motions
+    from pbr_xval.validation.execution import prepare_motions
 
     csv, scn_path, _ = box_campaign_files
     camp = load_campaign(csv, 1)

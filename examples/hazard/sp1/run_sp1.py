@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     from pbr_xval.catalog.fragility import fit_lognormal, fit_surface
     from pbr_xval.cli.hazard_impl import constrain_command
     from pbr_xval.hazard.curves import HazardCurve, write_oq_csv
-    from pbr_xval.hazard.fragility import LognormalFragility
+    from pbr_xval.hazard.fragility_functions import LognormalFragility
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
 
     pga, ratio, pred, _motions, obs = _outcomes(a.validate_dir / "outcomes.csv", a.engine)
