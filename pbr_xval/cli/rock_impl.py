@@ -161,6 +161,15 @@ def rock_command(
             )
     d = model.to_dict()
     ct = d["critical_tilt"]
+    if ct["at_rest"] and ct["min_deg"] is not None:
+        # the table's 5° grid can miss a narrow dip of α(φ) (SP1: 4.6° at 336°, 10.0° at 335°)
+        step = 0.25
+        a_min, phi_min = model.stability.minimum(step_deg=step)
+        ct.update(
+            refined_min_deg=math.degrees(a_min),
+            refined_min_at_phi_deg=math.degrees(phi_min),
+            refined_step_deg=step,
+        )
     f3 = lambda a: "(" + ", ".join(f"{x:.4f}" for x in a) + ")"  # noqa: E731
     t = Table(title=f"rock model: {model.name}", show_header=False)
     t.add_row("mass", f"{d['mass_kg']:.2f} kg  (density {d['density_kg_m3']:.1f} kg/m³)")
@@ -190,9 +199,12 @@ def rock_command(
             f"{-ct['rest_margin_m'] * 1e3:.3g} mm outside its support); use --pose settle",
         )
     else:
+        n_dir = len(ct["phi_deg"])
         t.add_row(
             "critical tilt α",
-            f"min {ct['min_deg']:.2f}° (at φ = {ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}° "
+            f"min {ct['refined_min_deg']:.2f}° (at φ = {ct['refined_min_at_phi_deg']:.1f}°; searched on a "
+            f"{ct['refined_step_deg']:g}° grid: the {360 / n_dir:g}° table's smallest is {ct['min_deg']:.2f}° at "
+            f"{ct['min_at_phi_deg']:.0f}°), max {ct['max_deg']:.2f}° on the table "
             "(turned about the horizontal axis ⟂ φ)",
         )
         phis = np.asarray(ct["phi_deg"])

@@ -218,6 +218,42 @@ def critical_tilt(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) 
     return float("nan")
 
 
+def _rolling_tilt(rel: np.ndarray, direction: np.ndarray, tol: float) -> float:
+    """First angle (rad) at which the COM passes over its contact, tilting toward the horizontal unit
+    ``direction`` the hull vertices ``rel`` (k, 3), m, relative to the COM, found by following the
+    contact. A lower bound on :func:`critical_tilt`, equal to it unless a neighbouring point catches
+    the rock within one of that function's 0.125° steps after the COM passed over the contact.
+
+    Only the coordinates along ``direction`` (s) and z matter: turned by θ, a point is at
+    s' = s cos θ + z sin θ and z' = z cos θ − s sin θ. The COM passes over a contact c at
+    θ_c = atan2(s_c, −z_c). Start from the lowest point farthest along ``direction``; at θ_c
+    take the lowest points (within ``tol``, m) — if c is still the one farthest along, θ_c is
+    the critical tilt; otherwise the contact has rolled forward to a point q (the contact only
+    moves forward as the hull turns, so the COM cannot pass over any contact before θ_q) and the
+    step repeats from q. NaN when the COM is not inside its support toward ``direction`` or no
+    crossing exists below π.
+    """
+    s = rel @ direction
+    z = rel[:, 2]
+    low = z <= z.min() + tol
+    c = int(np.argmax(np.where(low, s, -np.inf)))
+    if s[c] <= 0:
+        return float("nan")
+    for _ in range(len(rel)):
+        theta = float(np.arctan2(s[c], -z[c]))
+        if theta >= np.pi:
+            return float("nan")
+        cs, sn = np.cos(theta), np.sin(theta)
+        zr = z * cs - s * sn
+        sr = s * cs + z * sn
+        low = zr <= zr.min() + tol
+        q = int(np.argmax(np.where(low, sr, -np.inf)))
+        if q == c or sr[q] <= sr[c] + tol:
+            return theta
+        c = q
+    return float("nan")  # pragma: no cover - the contact cannot visit more points than the hull has
+
+
 class StabilityTable:
     """Critical tilt α(φ), tilt-table angle α_u(φ) and uplift levers on a grid of directions.
 
@@ -255,11 +291,62 @@ class StabilityTable:
         self.margin = rest_margin(self.polygon, com[:2])
         self.ray = np.array([ray_lever(self.polygon, com[:2], d) for d in dirs])
         self.uplift_angle = np.arctan2(self.ray, self.com_height)
+        self._hull = hv
+        self._com = com.copy()
 
     @property
     def at_rest(self) -> bool:
         """True when the COM's vertical passes strictly inside the support polygon."""
         return self.margin > 0
+
+    def minimum(self, step_deg: float = 0.25) -> tuple[float, float]:
+        """(α_min, φ_min), rad: the smallest critical tilt over all directions, not only the table's.
+
+        α(φ) of a polyhedral hull is discontinuous in φ: where the rock pivots on a single hull
+        vertex until its COM passes over it, α(φ) = atan(b_s(φ)/h) exactly, and next to that
+        window a neighbouring base point catches the rock and α jumps up. Such a window can be
+        narrower than the table's spacing (SP1: 4.6° over 336–339°, while the 5° table reads
+        10.0° at 335°). Branch and bound on a ``step_deg`` grid with the α of
+        :func:`critical_tilt` (the table's): :func:`_rolling_tilt`, the first angle at which the
+        COM passes over a contact, is a lower bound on it (equal except where a neighbouring point
+        catches the rock within a step of the tilt), cheap enough for every direction; directions
+        are evaluated in increasing order of that bound until it exceeds the best α found, and the
+        best is refined by a bounded scalar search within ± one step. A window narrower than
+        ``step_deg`` can still be missed. NaN, NaN when the pose is not at rest.
+        """
+        from scipy.optimize import minimize_scalar
+
+        ok = np.isfinite(self.alpha)
+        if not self.at_rest or not ok.any():
+            return float("nan"), float("nan")
+        rel = self._hull - self._com
+        tol = 1e-9 * float(np.ptp(rel))
+
+        def unit(p: float) -> np.ndarray:
+            return np.array([np.cos(p), np.sin(p), 0.0])
+
+        def tilt(p: float) -> float:
+            a = critical_tilt(self._hull, self._com, unit(p))
+            return float(a) if np.isfinite(a) else float("inf")
+
+        phi = np.radians(np.arange(0.0, 360.0, step_deg))
+        bound = np.array([_rolling_tilt(rel, unit(float(p)), tol) for p in phi])
+        bound = np.where(np.isfinite(bound), bound, np.inf)
+        k0 = int(np.argmin(np.where(ok, self.alpha, np.inf)))
+        best, best_phi = float(self.alpha[k0]), float(self.phi[k0])
+        for k in np.argsort(bound, kind="stable"):
+            if bound[k] >= best:
+                break
+            a = tilt(float(phi[k]))
+            if a < best:
+                best, best_phi = a, float(phi[k])
+        step = np.radians(step_deg)
+        r = minimize_scalar(
+            tilt, bounds=(best_phi - step, best_phi + step), method="bounded", options={"xatol": 1e-5}
+        )
+        if float(r.fun) < best:
+            best, best_phi = float(r.fun), float(r.x)
+        return best, best_phi % (2 * np.pi)
 
     def alpha_at(self, phi: np.ndarray | float) -> np.ndarray:
         """Critical tilt (rad) at directions ``phi`` (rad), periodic linear interpolation."""
