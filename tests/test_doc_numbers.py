@@ -354,6 +354,15 @@ def test_scenarios_sp1_bounds_and_the_alpha_dip() -> None:
     assert (math.degrees(model.stability.alpha[k]), math.degrees(model.stability.phi[k])) == pytest.approx(
         (table_min, table_at), abs=0.05
     )
+    # the table's stepping misses a crossing shorter than its 0.125° step (toward 200°)
+    at200, first200 = _find("scenarios.md", r"SP1 toward 200°, ([\d.]+)° for ([\d.]+)°")
+    from pbr_xval.geometry.stability import _rolling_tilt
+
+    d200 = np.array([math.cos(math.radians(200.0)), math.sin(math.radians(200.0)), 0.0])
+    assert math.degrees(critical_tilt(hv, com, d200)) == pytest.approx(at200, abs=0.005)
+    assert math.degrees(_rolling_tilt(hv - com, d200, 1e-9 * float(np.ptp(hv)))) == pytest.approx(
+        first200, abs=0.005
+    )
     # independent: inside the window the rock pivots on one vertex, α = atan(b_s/h) (closed form)
     for deg in (336.5, 338.0):
         d = np.array([math.cos(math.radians(deg)), math.sin(math.radians(deg)), 0.0])
@@ -473,7 +482,14 @@ def test_catalogs_tradeoff_table_against_the_experiments() -> None:
         for col, key, tol in ((2, "cost", 0.005), (3, "brier", 5e-4), (4, "f1", 5e-4)):
             doc = [_num(x.replace("*", "")) for x in row[col].split("/")]
             assert doc == pytest.approx([g[key] for g in per_dt], abs=tol), (label, key)
+    hull_1ms = _setting_scores("mujoco", _settings("0.001", "hull"))
     coacd_1ms = _setting_scores("mujoco", _settings("0.001", "coacd"))
+    errors = _find(
+        "catalogs.md",
+        r"CoACD at 1 ms is (\d) errors \((\d) FP, (\d) FN\) against the hull's (\d) \((\d) FP, (\d) FN\)",
+    )
+    c, h = coacd_1ms, hull_1ms
+    assert errors == (c["fp"] + c["fn"], c["fp"], c["fn"], h["fp"] + h["fn"], h["fp"], h["fn"])
     row = _row("catalogs.md", "MuJoCo | 4 / 2 / 1 ms, CoACD")
     assert row[5] == "1 ms: " + " ".join(str(coacd_1ms[k]) for k in ("tp", "fp", "fn", "tn"))
 
