@@ -136,6 +136,23 @@ def test_toppling_stop_at_rest_constants() -> None:
     assert f"`REST_ENERGY_FRACTION` = {stepping.REST_ENERGY_FRACTION * 100:g} %" in text
 
 
+def test_toppling_search_defaults() -> None:
+    """The search's and the decision's defaults as the page states them (definitions, not measurements)."""
+    import inspect
+
+    from pbr_xval.scenario import Toppling
+    from pbr_xval.study.threshold_search import find_threshold
+
+    text = _doc("toppling.md")
+    defaults = {k: p.default for k, p in inspect.signature(find_threshold).parameters.items()}
+    assert f"`--n-grid` values (default {defaults['n_grid']}, geometric)" in text
+    assert "`--rel-tol` (default 1e-3)" in text and defaults["rel_tol"] == 1e-3
+    assert f"local maximum there that reaches {defaults['near']:g}" in text
+    assert f"Splitting stops at {defaults['min_width'] * 100:g} % of the value" in text
+    down = Toppling.model_fields["down_angle_deg"].default
+    assert f"tilt ≥ `down_angle_deg` ({down:g}° by default)" in text
+
+
 # ================================================================== docs/diagnostics.md
 def _block_scene() -> Scene:
     from pbr_xval.conformance import housner_scenario
