@@ -268,32 +268,63 @@ def run_ensemble_variant(
 
 
 def ensemble_score_range(
-    observed: dict[str, int], p_values: dict[str, list[float]]
+    observed: dict[str, int], p_ranges: dict[str, tuple[float, float]]
 ) -> dict[str, tuple[float, float]]:
-    """(lowest, highest) Brier and F1 at P ≥ 0.5 when each test's P may take any value in ``p_values[test]``.
+    """(lowest, highest) Brier and F1 at P ≥ 0.5 when each test's P may lie anywhere in ``p_ranges[test]``.
 
-    The ensemble's analogue of :func:`f1_range`: the values a test's P took under the
-    perturbations are what another machine may give it. Brier is a mean of per-test terms, so its
-    bounds are the means of each test's smallest and largest (P − o)²; F1 depends on each test's
-    side of 0.5 only, so a test whose side changed is *fragile* and :func:`f1_range` applies.
+    The ensemble's analogue of :func:`f1_range`. Brier is a mean of per-test terms (P − o)², so its
+    bounds are the means of each term's smallest and largest value over the test's range; F1
+    depends on each test's side of 0.5 only, so a test whose range straddles 0.5 is *fragile* and
+    :func:`f1_range` applies to the others' fixed sides.
     """
-    tests = sorted(p_values)
-    lo = sum(min((p - observed[t]) ** 2 for p in p_values[t]) for t in tests) / len(tests)
-    hi = sum(max((p - observed[t]) ** 2 for p in p_values[t]) for t in tests) / len(tests)
-    sides = {t: {int(p >= 0.5) for p in p_values[t]} for t in tests}
-    robust = {t: next(iter(s)) for t, s in sides.items() if len(s) == 1}
-    fragile = [t for t, s in sides.items() if len(s) > 1]
-    return {"brier": (lo, hi), "f1": f1_range({t: observed[t] for t in tests}, robust, fragile)}
+    tests = sorted(p_ranges)
+    lo_terms, hi_terms, robust, fragile = [], [], {}, []
+    for t in tests:
+        a, b = p_ranges[t]
+        o = observed[t]
+        lo_terms.append(0.0 if a <= o <= b else min((a - o) ** 2, (b - o) ** 2))
+        hi_terms.append(max((a - o) ** 2, (b - o) ** 2))
+        if (a >= 0.5) == (b >= 0.5):
+            robust[t] = int(a >= 0.5)
+        else:
+            fragile.append(t)
+    n = len(tests)
+    return {
+        "brier": (sum(lo_terms) / n, sum(hi_terms) / n),
+        "f1": f1_range({t: observed[t] for t in tests}, robust, fragile),
+    }
+
+
+def member_flips(members: dict[str, pd.DataFrame]) -> dict[str, list[str]]:
+    """Per variant (not base): the tests with a member whose outcome differs from the base run's."""
+    base = members["base"].set_index(["test", "member"])["toppled"]
+    out = {}
+    for v, m in members.items():
+        if v == "base":
+            continue
+        other = m.set_index(["test", "member"])["toppled"]
+        common = base.index.intersection(other.index)
+        diff = base.loc[common] != other.loc[common]
+        out[v] = sorted({str(t) for t, _m in diff[diff].index})
+    return out
 
 
 def ensemble_summary(
-    results: dict[str, pd.DataFrame], *, baselines: dict[str, np.ndarray] | None = None
+    results: dict[str, pd.DataFrame],
+    *,
+    baselines: dict[str, np.ndarray] | None = None,
+    members: dict[str, pd.DataFrame] | None = None,
 ) -> dict[str, Any]:
     """Per test and variant (k, n, P), the base run's Jeffreys 95 % interval, the tests whose P left it,
-    the largest |ΔP|, each variant's Brier and F1, and :func:`ensemble_score_range` over the variants.
+    the largest |ΔP|, each variant's Brier and F1, and :func:`ensemble_score_range` twice:
+    ``*_range_measured`` with each test's P anywhere between the values the variants gave it, and
+    ``*_range`` (what a guard allows) with every *fragile* test (a member's outcome flipped under a
+    variant, ``members`` given, or its P moved) and every *undecided* one (0 < k < n in the base run:
+    its members sit near their threshold) anywhere in the base run's Jeffreys 95 % interval.
 
     ``results``: variant → :func:`run_ensemble_variant` rows ("base" first); ``baselines``: model →
-    P per test (the base rows' order), e.g. the out-of-fold logistic baselines, scored alongside.
+    P per test (the base rows' order), e.g. the out-of-fold logistic baselines, scored alongside;
+    ``members``: variant → its member rows (``ensemble_members.csv``).
     """
     from pbr_xval.uncertainty import jeffreys_interval
     from pbr_xval.validation.scores import probabilistic_scores
@@ -322,7 +353,21 @@ def ensemble_summary(
         pv = r.set_index("test").loc[tests, "p"].to_numpy(float)
         s = probabilistic_scores(obs, pv)
         scores[v] = {k: float(s[k]) for k in ("brier", "log_loss", "auc", "f1")}
-    rng = ensemble_score_range(observed, {t: [per_test[t][v]["p"] for v in results] for t in tests})
+    measured = {
+        t: (min(per_test[t][v]["p"] for v in results), max(per_test[t][v]["p"] for v in results))
+        for t in tests
+    }
+    flips = member_flips(members) if members else {}
+    fragile = sorted(
+        {t for ts in flips.values() for t in ts} | {t for t in tests if measured[t][0] != measured[t][1]}
+    )
+    undecided = [t for t in tests if 0 < per_test[t]["base"]["k"] < per_test[t]["base"]["n"]]
+    # the guard's interval: fragile or undecided tests anywhere in the base run's Jeffreys 95 % interval
+    # (the stated one), every other test at the values measured
+    free = set(fragile) | set(undecided)
+    guarded = {t: (tuple(per_test[t]["jeffreys95"]) if t in free else measured[t]) for t in tests}
+    rng_m = ensemble_score_range(observed, measured)
+    rng = ensemble_score_range(observed, guarded)
     out: dict[str, Any] = {
         "tests": tests,
         "variants_run": list(results),
@@ -330,6 +375,11 @@ def ensemble_summary(
         "outside_base_interval": outside,
         "max_abs_dp": max_dp,
         "scores": scores,
+        "member_flips": flips,
+        "fragile_tests": fragile,
+        "undecided_tests": undecided,
+        "brier_range_measured": list(rng_m["brier"]),
+        "f1_range_measured": list(rng_m["f1"]),
         "brier_range": list(rng["brier"]),
         "f1_range": list(rng["f1"]),
         "member_runs": {v: int(r["n"].sum() + r["failed"].sum()) for v, r in results.items()},
@@ -343,6 +393,7 @@ def ensemble_summary(
         out["baselines_brier"] = bs
         out["best_baseline"] = best
         out["margin_vs_best_baseline"] = {v: 1.0 - scores[v]["brier"] / bs[best] for v in results}
+        out["margin_worst_case_measured"] = 1.0 - rng_m["brier"][1] / bs[best]
         out["margin_worst_case"] = 1.0 - rng["brier"][1] / bs[best]
     return out
 
@@ -368,6 +419,29 @@ def logistic_out_of_fold(
     return {m: p[sel] for m, p in lb.items()}
 
 
+def _provenance() -> dict[str, Any]:
+    """Date, machine, load and commit of a measurement (the runs may have been resumed from a store)."""
+    import datetime
+    import os
+
+    from pbr_xval.machine import machine_info
+
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True,
+            cwd=Path(__file__).resolve().parent,
+        ).stdout.strip()  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown"
+    return {
+        "date": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": machine_info(),
+        "load_1_5_15": [round(x, 2) for x in os.getloadavg()],
+        "commit": commit,
+        "tool": "python -m pbr_xval.validation.robustness --ensemble",
+    }
+
+
 def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
     """The base ensemble in a process whose OpenBLAS uses its Haswell kernels (written to ``folder``)."""
     import os
@@ -386,12 +460,12 @@ def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
 
 def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
     """``--ensemble``: every variant's ensemble, then ``ensemble_robustness.{csv,json}``."""
-    import datetime
     import time
 
     tests = [t.strip() for t in a.tests.split(",") if t.strip()] if a.tests else None
     results: dict[str, pd.DataFrame] = {}
     walls: dict[str, float] = {}
+    member_rows: dict[str, pd.DataFrame] = {}
     for name in names:
         folder = a.out / name.replace("%", "pct").replace("+", "plus").replace("-", "minus")
         print(f"robustness: ensemble {name} ({ENSEMBLE_VARIANTS[name]})", flush=True)
@@ -400,6 +474,7 @@ def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
             _haswell_base(a, folder)
             t = pd.read_csv(folder / "ensemble_robustness.csv", dtype={"test": str})
             results[name] = t[t["variant"] == "base"].drop(columns="variant").reset_index(drop=True)
+            members = pd.read_csv(folder / "base" / "ensemble_members.csv", dtype={"test": str})
         else:
             scn = a.scenario if name == "base" else _ensemble_variant_scenario(a.scenario, name, folder)
             results[name], members = run_ensemble_variant(
@@ -408,17 +483,18 @@ def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
             )  # fmt: skip
             write_text_atomic(folder / "ensemble_members.csv", members.to_csv(index=False))
         walls[name] = round(time.perf_counter() - t0, 1)
+        member_rows[name] = members.astype({"test": str})
     order = [str(t) for t in results["base"]["test"]]
     summary = {
         "specimen": a.specimen,
         "scenario": str(a.scenario),
         "ensemble": {"members": a.members, "half_width": a.half_width, "batch": a.batch},
-        **ensemble_summary(results, baselines=logistic_out_of_fold(Path(a.campaign), a.specimen, order)),
-        "wall_s": walls,
-        "measured": {
-            "date": datetime.date.today().isoformat(),
-            "tool": "python -m pbr_xval.validation.robustness --ensemble",
-        },
+        **ensemble_summary(
+            results, baselines=logistic_out_of_fold(Path(a.campaign), a.specimen, order), members=member_rows
+        ),
+        # wall times of this invocation (a run resumed from its store costs nothing): not a cost figure
+        "wall_s_this_invocation": walls,
+        "measured": _provenance(),
     }
     table = pd.concat([r.assign(variant=v) for v, r in results.items()], ignore_index=True)
     write_text_atomic(a.out / "ensemble_robustness.csv", table.to_csv(index=False))

@@ -76,13 +76,27 @@ def test_ensemble_variants_move_every_member_by_the_stated_amount() -> None:
         assert s.values["timestep"] == pytest.approx(1.01 * b.values["timestep"], rel=1e-12)
 
 
-def test_ensemble_score_range_is_spanned_by_each_tests_values() -> None:
+def test_ensemble_score_range_over_each_tests_range() -> None:
     from pbr_xval.validation.robustness import ensemble_score_range
 
     observed = {"a": 1, "b": 0, "c": 1}
-    # a: 0.75 or 1 (always ≥ 0.5); b: 0 or 0.5 (its side of 0.5 changes: fragile); c: 0.25
-    r = ensemble_score_range(observed, {"a": [0.75, 1.0], "b": [0.0, 0.5], "c": [0.25]})
+    # a: 0.75 … 1 (always ≥ 0.5); b: 0 … 0.5 (straddles 0.5: fragile); c: 0.25
+    r = ensemble_score_range(observed, {"a": (0.75, 1.0), "b": (0.0, 0.5), "c": (0.25, 0.25)})
     assert r["brier"][0] == pytest.approx((0.0 + 0.0 + 0.5625) / 3)
     assert r["brier"][1] == pytest.approx((0.0625 + 0.25 + 0.5625) / 3)
     # robust: a TP, c FN; b a false alarm (F1 2/(2+1+1)) or a true negative (2/(2+0+1))
     assert r["f1"] == (pytest.approx(0.5), pytest.approx(2 / 3))
+    # a range around the observed outcome contains a zero term: (0.8 … 1) for o = 1
+    assert ensemble_score_range({"x": 1}, {"x": (0.8, 1.0)})["brier"] == (0.0, pytest.approx(0.04))
+
+
+def test_member_flips_name_the_tests_whose_members_changed() -> None:
+    from pbr_xval.validation.robustness import member_flips
+
+    def m(top: list[bool]) -> pd.DataFrame:
+        return pd.DataFrame({"test": ["1", "1", "2", "2"], "member": [0, 1, 0, 1], "toppled": top})
+
+    base = m([True, False, False, False])
+    # tilt: test 1's members swap outcomes (P unchanged, yet fragile); haswell: the same as base
+    flips = member_flips({"base": base, "tilt": m([False, True, False, False]), "haswell": base})
+    assert flips == {"tilt": ["1"], "haswell": []}
