@@ -323,7 +323,9 @@ def test_scenarios_shake_table_records_against_the_lab_sheet() -> None:
     assert (offset.min(), offset.max(), np.median(offset)) == pytest.approx((lo, hi, med), abs=5e-4)
 
 
-@pytest.mark.skipif(not (SHARED / "scans" / "SP1_mesh.obj").is_file(), reason="SP1 scan not present")
+@pytest.mark.skipif(
+    not (SHARED / "scans" / "SP1_mesh.obj").is_file(), reason=f"SP1 scan not found at {SHARED}"
+)
 def test_scenarios_sp1_bounds_and_the_alpha_dip() -> None:
     """SP1 settled: the uplift bound along ±x (g·tan α_u, the support polygon's ray lever, computed here
     from the hull's lowest points with scipy) and the critical tilt toward +x; and α_min: the rock's
