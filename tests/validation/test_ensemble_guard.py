@@ -8,7 +8,7 @@ PyBullet mixture and its ``[uncertainty]`` table), adaptive as documented (batch
 Jeffreys 95 % half-width is ≤ 0.1 or the interval excludes 0.5) but **at most 8 members**: the first
 8 members of the documented 16-member design, to fit CI's time budget.
 
-``examples/validation/robustness/ensemble_guard_sp<N>.json`` (written by
+``examples/validation/robustness/ensemble_sp<N>_guard.json`` (written by
 ``python -m pbr_xval.validation.robustness --ensemble``, see docs/validation.md) holds, for that
 configuration, each test's P(topple) as run here and under perturbations of every member far below
 physical uncertainty or of the machine (1e-9 rad of seating tilt, OpenBLAS's Haswell kernels,
@@ -52,7 +52,7 @@ BATCH = 4
 
 
 def _guard(specimen: int) -> dict:
-    return json.loads((ROBUSTNESS / f"ensemble_guard_sp{specimen}.json").read_text())
+    return json.loads((ROBUSTNESS / f"ensemble_sp{specimen}_guard.json").read_text())
 
 
 def _documented(specimen: int) -> tuple[float, float, bool]:
