@@ -470,6 +470,7 @@ class RigidBodySolver:
         self._cand_n = n
         if self._cull:
             lim = cull_tilts(body.nodes, self.eps)
+            self._cull_lim_id = lim  # per node id (kernel.step_block)
             self._cull_order = np.argsort(lim, kind="stable")
             self._cull_lim = lim[self._cull_order].tolist()
         # |ω| ≤ |l| / λ_min(I): the tilt margin of a step
@@ -913,6 +914,78 @@ class RigidBodySolver:
                 return State.from_buf(out), its
             st.general_steps += 1
         return self._step_general(s0, t0, dt, tl0, tl1)
+
+    def step_block(
+        self, s0: State, steps: list[tuple[float, float]], loads: np.ndarray, rest: np.ndarray
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`kernel.step_block`: the steps ``steps`` [(t0, Δt), …] from ``s0`` with the
+        loads ``loads`` (n, 2, 3) (at t0⁺, t1⁻), as many as need no Python path; inertial
+        ground motion, compiled only. The statistics and the ``last_*`` attributes are
+        updated as :meth:`step` would have after each done step.
+
+        Returns (steps done, exit code, states (done, 18), infos (done, N_INFO), band
+        projections (done,) m).
+        """
+        n = len(steps)
+        t0s = np.array([a for a, _ in steps])
+        hs = np.array([b for _, b in steps])
+        rows_sv = np.empty((n, 18))
+        rows_info = np.zeros((n, kernel.N_INFO))
+        rows_lift = np.zeros(n)
+        gaps = np.empty(self.body.nodes.shape[0])
+        cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
+        self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
+        done, code = kernel.step_block(
+            s0.buf,
+            self._prm,
+            loads,
+            t0s,
+            hs,
+            self.body.inertia_inv,
+            self.body.nodes,
+            self._cull,
+            cull_lim,
+            self._inv_lmin,
+            BAND_TOLERANCE,
+            rest,
+            self._active,
+            self._prev_force,
+            self._pred,
+            self._pred_idx,
+            gaps,
+            rows_sv,
+            rows_info,
+            rows_lift,
+        )
+        return int(done), int(code), rows_sv[:done], rows_info[:done], rows_lift[:done]
+
+    def account_block(self, info: np.ndarray) -> None:
+        """Statistics and ``last_*`` of the steps of :meth:`step_block` (rows ``info``) that
+        the run keeps, as :meth:`step` records them step by step."""
+        m = info.shape[0]
+        if m == 0:
+            return
+        st = self.stats
+        its = info[:, kernel.I_ITS]
+        st.kernel_steps += m
+        st.lcp_solves += int(info[:, kernel.I_SOLVES].sum())
+        st.lcp_fast_path += int(info[:, kernel.I_FAST].sum())
+        st.cayley_projections += int(info[:, kernel.I_CAYLEY].sum())
+        st.iterations_total += int(its.sum())
+        st.iterations_max = max(st.iterations_max, int(its.max()))
+        st.iteration_nonconverged += int((info[:, kernel.I_CONV] == 0).sum())
+        res = info[info[:, kernel.I_NRES] != 0]
+        if res.shape[0]:
+            st.signorini_f.extend(res[:, kernel.I_SIG_F].tolist())
+            st.signorini_a.extend(res[:, kernel.I_SIG_A].tolist())
+            st.complementarity.extend(res[:, kernel.I_COMPL].tolist())
+            st.cone.extend(np.maximum(0.0, res[:, kernel.I_CONE]).tolist())
+        last = info[-1]
+        self.last_gmin = float(last[kernel.I_GMIN])
+        self.last_ncontacts = int(last[kernel.I_NCONT])
+        self.last_force = last[kernel.I_F1 : kernel.I_F1 + 3].copy()
+        self.last_torque = last[kernel.I_TAU1 : kernel.I_TAU1 + 3].copy()
+        self.last_omega = last[kernel.I_OMEGA : kernel.I_OMEGA + 3].tolist()
 
     def _step_general(self, s0: State, t0: float, dt: float, tl0: float, tl1: float) -> tuple[State, int]:
         """:meth:`step` in NumPy with the general resting solver (same arithmetic as

@@ -140,8 +140,10 @@ class _StepLoad:
         self.direct = direct
         self.many = many
         self.plan: Any = None  # (t, n) -> [(t0, Δt), ...]
-        self._starts: set[float] = set()
+        self._starts: dict[float, int] = {}  # planned step start -> its index in the plan
         self._table: dict[float, np.ndarray] = {}
+        self._steps: list[tuple[float, float]] = []
+        self._vals = np.zeros((0, 3))
         self._end = math.nan  # the last planned start (where the next plan continues)
         self._n = self.block_min
 
@@ -156,9 +158,23 @@ class _StepLoad:
             times.append(t0 + 1e-9 * dt)
             times.append((t0 + dt) - 1e-9 * dt)
         vals = self.many(np.array(times)) if times else np.zeros((0, 3))
-        self._starts = {t0 for t0, _ in steps[:-1]}  # the last start re-plans the next block
+        # the last start re-plans the next block
+        self._starts = {t0: i for i, (t0, _) in enumerate(steps[:-1])}
         self._end = steps[-1][0] if steps else math.nan
+        self._steps = steps
+        self._vals = np.ascontiguousarray(np.asarray(vals, dtype=float).reshape(-1, 3))
         self._table = dict(zip(times, vals, strict=True))
+
+    def planned(self, t: float, limit: int) -> tuple[list[tuple[float, float]], np.ndarray, float]:
+        """After :meth:`at_step` (t): the planned steps [(t0, Δt), …] from t (at most
+        ``limit``, the plan's last start excluded), their loads (n, 2, 3) at t0⁺ and t1⁻ (the
+        values the stepper asks for), and the time after the last of them."""
+        i0 = self._starts.get(t)
+        if i0 is None:
+            return [], np.zeros((0, 2, 3)), t
+        i1 = min(len(self._steps) - 1, i0 + limit)
+        loads = self._vals[2 * i0 : 2 * i1].reshape(-1, 2, 3)
+        return self._steps[i0:i1], loads, self._steps[i1][0]
 
     def __call__(self, t: float) -> np.ndarray:
         v = self._table.get(t)
@@ -172,6 +188,12 @@ def _record_impact(stepper: Any, rec: Any, t: float, info: dict[str, Any]) -> No
         stepper.stats.impact_ratios.append(info["ratio"])
     rec.events.append(Event("impact", t, info))
 
+
+#: steps per :func:`kernel.step_block` call (the compiled many-step path of the time loop,
+#: inertial ground motion, ``compiled = True``; the same arithmetic as the step-by-step loop,
+#: bit for bit; 0: step by step). An implementation constant, not a setting: it changes no
+#: result, only the cost (reference/PERFORMANCE.md)
+BLOCK_STEPS = 256
 
 _WARM = False
 
@@ -190,6 +212,7 @@ def _warm_up(stepper: Any, state: Any) -> None:
         lambda: stepper.resolve_impacts(s, 0.0, 1e-4),
         lambda: stepper.step(s, 0.0, 1e-4),
         lambda: stepper._step_general(s, 0.0, 1e-4, 1e-13, 1e-4 - 1e-13),
+        lambda: stepper.step_block(s, [(0.0, 1e-4)], np.zeros((1, 2, 3)), np.zeros(5)),
     ):
         try:
             call()
@@ -267,6 +290,7 @@ class ReferenceEngine(EngineBase):
 
     # ------------------------------------------------------------------ simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
+        from pbr_xval.reference import kernel
         from pbr_xval.reference.dynamics import (
             Body,
             ImpactPending,
@@ -385,6 +409,14 @@ class ReferenceEngine(EngineBase):
             min_dt = float(s["min_timestep"])
             budget = float(s["max_cpu_per_simulated_s"])
             n_check = 0
+            blocks = (
+                BLOCK_STEPS > 0
+                and stepper.compiled
+                and isinstance(load, _StepLoad)
+                and pedestal.kinematics is None
+            )
+            rest_prm = np.array([rest_v, t_exc_end, size, dt_nom, float(body.mass)])
+            slow_once = False
             while not stop and t < duration - 1e-12 * dt_nom:
                 n_check += 1
                 if budget > 0 and n_check >= 64:
@@ -404,6 +436,55 @@ class ReferenceEngine(EngineBase):
                 h = min(dt_nom, t_next_bp - t)
                 if isinstance(load, _StepLoad):
                     load.at_step(t)
+                if blocks and not slow_once:
+                    # the compiled many-step path: the planned steps that need no Python
+                    # (no impact, general solve or step-back), recorded and counted as the
+                    # step-by-step loop below would have
+                    assert isinstance(load, _StepLoad)
+                    # blocks end on the cost-budget checks (every 64 steps)
+                    limit = BLOCK_STEPS if budget <= 0 else max(1, min(BLOCK_STEPS, 64 - n_check))
+                    plan, loads, t_after = load.planned(t, limit)
+                    if plan:
+                        done, code, rows, infos, lifts = stepper.step_block(state, plan, loads, rest_prm)
+                        slow_once = code != 0
+                        if done:
+                            ts = np.array(
+                                [p[0] for p in plan[1:done]]
+                                + [plan[done][0] if done < len(plan) else t_after]
+                            )
+                            pens = np.maximum(0.0, -infos[:, kernel.I_GMIN])
+                            ncons = infos[:, kernel.I_NCONT].astype(np.int64)
+                            stop, used = rec.record_block(
+                                ts,
+                                rows[:, 0:3],
+                                rows[:, 6:15],
+                                infos[:, kernel.I_OMEGA : kernel.I_OMEGA + 3],
+                                ncons,
+                                pens,
+                            )
+                            n_check += used - 1
+                            stepper.account_block(infos[:used])
+                            stepper.stats.steps += used
+                            contacts_max = max(contacts_max, int(ncons[:used].max()))
+                            stepper.stats.max_penetration = max(
+                                stepper.stats.max_penetration, float(pens[:used].max())
+                            )
+                            lifted = lifts[:used][lifts[:used] > 0]
+                            band_projections += int(lifted.size)
+                            if lifted.size:
+                                band_lift_max = max(band_lift_max, float(lifted.max()))
+                            state = State.from_buf(rows[used - 1].copy())
+                            t = float(ts[used - 1])
+                            if not stop and used == done and code == kernel.BLOCK_AT_REST:
+                                n_cont = int(ncons[used - 1])
+                                pen = float(pens[used - 1])
+                                if self._at_rest(stepper, state, size, dt_nom, rest_v):
+                                    held_from, t = self._hold(
+                                        rec, scene, state, stepper, pedestal, t, duration, dt_nom, n_cont, pen
+                                    )
+                                    break
+                        continue
+                slow_once = False
                 info = None
                 if not stepper.compiled:
                     state, info = stepper.resolve_impacts(state, t, h)
@@ -493,41 +574,19 @@ class ReferenceEngine(EngineBase):
                         penetration=pen,
                         force=last,
                     )
+                else:
+                    # the contact counts are per step (as the many-step path and the other
+                    # engines' loops record them), not per output sample
+                    rec._count_contacts(n_cont, n_cont, n_cont, 1)
                 if (
                     not stop
                     and rest_v > 0
                     and t >= t_exc_end
                     and self._at_rest(stepper, state, size, dt_nom, rest_v)
                 ):
-                    held_from = t
-                    tt = t
-                    if getattr(scene.toppling, "stop_at_rest", False):
-                        # toppling.stop_at_rest: the outcome is decided (a rigid rock at rest on a
-                        # still pedestal stays there); the run ends here, its last state a sample
-                        if not rec.t or rec.t[-1] != t:
-                            rec.record(
-                                t,
-                                com_rel,
-                                state.R,
-                                stepper.omega(state),
-                                n_contacts=n_cont,
-                                penetration=pen,
-                                force=True,
-                            )
-                        rec.stopped_at_rest = t
-                        break
-                    while not stop and tt < duration - 1e-12 * dt_nom:
-                        tt = min(tt + float(scene.output_dt), duration)
-                        stop = rec.record(
-                            tt,
-                            self._rel_com(state, pedestal, tt),
-                            state.R,
-                            stepper.omega(state),
-                            n_contacts=n_cont,
-                            penetration=pen,
-                            force=tt >= duration - 1e-12 * dt_nom,
-                        )
-                    t = tt
+                    held_from, t = self._hold(
+                        rec, scene, state, stepper, pedestal, t, duration, dt_nom, n_cont, pen
+                    )
                     break
         except Exception as exc_:  # never raise from inside the stepping
             message = f"reference: stepping failed at t = {t:.6g} s: {type(exc_).__name__}: {exc_}"
@@ -577,6 +636,73 @@ class ReferenceEngine(EngineBase):
             lim_tilt = 0.8 * float(crit.factor) * float(np.min(scene.rock.stability.alpha))
         cos_lim = math.cos(lim_tilt)
         return lambda com, rot: bool(rot[2, 2] <= cos_lim)
+
+    def _hold(
+        self,
+        rec: Any,
+        scene: Scene,
+        state: Any,
+        stepper: Any,
+        pedestal: Any,
+        t: float,
+        duration: float,
+        dt_nom: float,
+        n_cont: int,
+        pen: float,
+    ) -> tuple[float, float]:
+        """The rock is at rest at t after the excitation: hold the state to the end (or stop
+        there with ``toppling.stop_at_rest``). Returns (held from, the run's end time)."""
+        held_from = t
+        tt = t
+        if getattr(scene.toppling, "stop_at_rest", False):
+            # toppling.stop_at_rest: the outcome is decided (a rigid rock at rest on a
+            # still pedestal stays there); the run ends here, its last state a sample
+            if not rec.t or rec.t[-1] != t:
+                rec.record(
+                    t,
+                    self._rel_com(state, pedestal, t),
+                    state.R,
+                    stepper.omega(state),
+                    n_contacts=n_cont,
+                    penetration=pen,
+                    force=True,
+                )
+            rec.stopped_at_rest = t
+            return held_from, tt
+        stop = False
+        w = stepper.omega(state)
+        if pedestal.kinematics is None:
+            # the held samples in one Recorder.record_block call (its result is that of
+            # record() after each row)
+            ts = []
+            while tt < duration - 1e-12 * dt_nom:
+                tt = min(tt + float(scene.output_dt), duration)
+                ts.append(tt)
+            if ts:
+                m = len(ts)
+                _, used = rec.record_block(
+                    np.array(ts),
+                    np.tile(state.x, (m, 1)),
+                    np.tile(state.R.ravel(), (m, 1)),
+                    np.tile(w, (m, 1)),
+                    np.full(m, n_cont, dtype=np.int64),
+                    np.full(m, pen),
+                    force_last=ts[-1] >= duration - 1e-12 * dt_nom,
+                )
+                tt = ts[used - 1]
+            return held_from, tt
+        while not stop and tt < duration - 1e-12 * dt_nom:
+            tt = min(tt + float(scene.output_dt), duration)
+            stop = rec.record(
+                tt,
+                self._rel_com(state, pedestal, tt),
+                state.R,
+                w,
+                n_contacts=n_cont,
+                penetration=pen,
+                force=tt >= duration - 1e-12 * dt_nom,
+            )
+        return held_from, tt
 
     @staticmethod
     def _at_rest(stepper: Any, state: Any, size: float, dt: float, rest_v: float) -> bool:

@@ -56,6 +56,7 @@ __all__ = [
     "kinematics",
     "lcp_unique",
     "step",
+    "step_block",
     "support_hull",
 ]
 
@@ -1140,3 +1141,146 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     if gmin < -prm[P_EPS] and prm[P_NO_PEN] == 0:
         return STEP_REJECTED
     return STEP_OK
+
+
+# ----------------------------------------------------------------------------- many steps
+#: :func:`step_block` exit codes beyond the ``STEP_*`` ones: the last step ended with the rock
+#: possibly at rest (the caller makes the exact test), or with a non-finite state
+BLOCK_AT_REST = 4
+BLOCK_NONFINITE = 5
+
+
+@njit(cache=True)
+def step_block(
+    sv,
+    prm,
+    loads,
+    t0s,
+    hs,
+    inertia_inv,
+    nodes,
+    cull,
+    cull_lim,
+    inv_lmin,
+    band_tol,
+    rest,
+    active,
+    prev_force,
+    pred,
+    pred_idx,
+    gaps,
+    rows_sv,
+    rows_info,
+    rows_lift,
+):
+    """Consecutive :func:`step` calls of the engine loop in one call (inertial ground motion).
+
+    Step i starts from the state left by step i − 1 (``sv`` for i = 0) at ``t0s[i]`` with
+    Δt ``hs[i]`` and the non-contact loads ``loads[i]`` (at t0⁺ and t1⁻), and makes exactly
+    what ``RigidBodySolver.step`` with ``impact_check`` and the engine loop do around a
+    compiled step: the candidate nodes of :meth:`dynamics.RigidBodySolver.candidates`
+    (``cull``: nodes with ``cull_lim[i]`` ≤ the start tilt + 0.02 + 2 Δt |l| / λ_min), the
+    acceptance of a step ending within ``band_tol``·ε of the band and the projection of a
+    node left deeper than ε back onto the band (``rows_lift``, m; the row's gap set to −ε).
+
+    It stops before a step that needs the Python path — an impact (``STEP_IMPACT``), the
+    general resting solver (``STEP_GENERAL``) or a step-back (``STEP_REJECTED``) — with the
+    mutable solver memory (``active``, ``prev_force``, ``pred``, ``pred_idx``) restored to
+    its state before that step, so that the caller repeats it exactly; and after a step
+    that ends with a non-finite state (``BLOCK_NONFINITE``) or, when ``rest[0]`` (rest
+    velocity, m/s) > 0 and t1 ≥ ``rest[1]`` (end of the excitation), with the rest test
+    of the engine (|u̇| + |ω| size and the velocity change per step below ``rest[0]``;
+    ``rest[2]`` size m, ``rest[3]`` nominal Δt s, ``rest[4]`` mass kg) holding within a
+    relative 1e-6 (``BLOCK_AT_REST``: the caller decides).
+
+    Returns (steps done, exit code); rows i < steps done hold the state after step i
+    (``rows_sv``) and the step's info (``rows_info``, layout ``I_*``).
+    """
+    n = t0s.size
+    nn = nodes.shape[0]
+    ext = np.zeros((7, 3))
+    eps = prm[P_EPS]
+    allc = np.arange(nn)
+    cand_buf = np.empty(nn, dtype=np.int64)
+    snap_active = np.empty(nn, dtype=np.int64)
+    snap_force = np.empty((nn, 3))
+    snap_pred = np.empty(pred.size)
+    snap_idx = np.empty(pred_idx.size, dtype=np.int64)
+    cur = sv
+    prm[P_NO_PEN] = 0.0
+    prm[P_IMPACT] = 1.0
+    for i in range(n):
+        dt = hs[i]
+        prm[P_T0] = t0s[i]
+        prm[P_DT] = dt
+        for c in range(3):
+            ext[0, c] = loads[i, 0, c]
+            ext[1, c] = loads[i, 1, c]
+        if cull:
+            cz = min(1.0, max(-1.0, cur[14]))
+            lmag = math.sqrt(cur[15] * cur[15] + cur[16] * cur[16] + cur[17] * cur[17])
+            th = math.acos(cz) + 0.02 + 2.0 * dt * lmag * inv_lmin
+            if th >= math.pi:
+                cand = allc
+                prm[P_COS_CAND] = -2.0
+            else:
+                m = 0
+                for j in range(nn):
+                    if cull_lim[j] <= th:
+                        cand_buf[m] = j
+                        m += 1
+                cand = cand_buf[:m].copy()
+                prm[P_COS_CAND] = math.cos(th)
+        else:
+            cand = allc
+        for a in range(cand.size):
+            j = cand[a]
+            snap_active[j] = active[j]
+            for c in range(3):
+                snap_force[j, c] = prev_force[j, c]
+        snap_pred[:] = pred
+        snap_idx[:] = pred_idx
+        out = rows_sv[i]
+        info = rows_info[i]
+        code = step(
+            cur, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
+        )
+        if code == STEP_IMPACT:
+            return i, code
+        gmin = info[I_GMIN]
+        if code == STEP_GENERAL or (code == STEP_REJECTED and gmin < -eps * (1.0 + band_tol)):
+            for a in range(cand.size):
+                j = cand[a]
+                active[j] = snap_active[j]
+                for c in range(3):
+                    prev_force[j, c] = snap_force[j, c]
+            pred[:] = snap_pred
+            pred_idx[:] = snap_idx
+            return i, code
+        rows_lift[i] = 0.0
+        if gmin < -eps:
+            lift = -eps - gmin
+            out[2] += lift
+            info[I_GMIN] = -eps
+            rows_lift[i] = lift
+        cur = out
+        finite = True
+        for c in range(18):
+            if not np.isfinite(out[c]):
+                finite = False
+        if not finite:
+            return i + 1, BLOCK_NONFINITE
+        if rest[0] > 0 and t0s[i] + dt >= rest[1]:
+            lim = rest[0] * (1.0 + 1e-6)
+            wx, wy, wz = info[I_OMEGA], info[I_OMEGA + 1], info[I_OMEGA + 2]
+            speed = math.sqrt(out[3] * out[3] + out[4] * out[4] + out[5] * out[5])
+            speed += math.sqrt(wx * wx + wy * wy + wz * wz) * rest[2]
+            if speed < lim:
+                fx, fy, fz = info[I_F1], info[I_F1 + 1], info[I_F1 + 2]
+                dv = math.sqrt(fx * fx + fy * fy + fz * fz) / rest[4] * rest[3]
+                R = out[6:15].reshape(3, 3)
+                tb = _mtv(R, info[I_TAU1 : I_TAU1 + 3].copy())
+                al = _mv(R, _mv(inertia_inv, tb))
+                if dv + _norm3(al) * rest[2] * rest[3] < lim:
+                    return i + 1, BLOCK_AT_REST
+    return n, STEP_OK
