@@ -113,7 +113,6 @@ def run_campaign_ensemble(
     below 0.5, or at ``members``. Members go where the outcome is uncertain; chunks are one
     batch each, so a rerun with the same settings recomputes nothing.
     """
-    from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
 
     eng_list, _ = spec.mixture(engines)
@@ -137,9 +136,7 @@ def run_campaign_ensemble(
             tail=tail, output_dt=output_dt, workers=workers, executor=executor, progress=progress,
             console=console,
         )  # fmt: skip
-    hashes = {c.content_hash() for c in chunks}
-    rows = load_results(out / "store")
-    rows = rows[rows["chunk_hash"].isin(hashes)]
+    rows = chunk_rows(out / "store", chunks)
     recs = []
     for r in rows.itertuples():
         prm = json.loads(r.motion_params)
@@ -191,7 +188,6 @@ def _adaptive_batches(
     half_width: float, batch: int, run_kw: dict[str, Any], kw: dict[str, Any],
 ) -> tuple[list[Any], Any]:  # fmt: skip
     from pbr_xval.catalog.predict import estimate, stop_rule
-    from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
 
     n_max = max((len(v) for v in per_test.values()), default=0)
@@ -211,8 +207,7 @@ def _adaptive_batches(
         )  # fmt: skip
         done, skipped, failed = done + summary.done, skipped + summary.skipped, failed + summary.failed
         all_chunks += chunks
-        rows = load_results(out / "store")
-        rows = rows[rows["chunk_hash"].isin({c.content_hash() for c in all_chunks})]
+        rows = chunk_rows(out / "store", all_chunks)
         tests = [json.loads(m)["test"] for m in rows["motion_params"]]
         outcome = rows.assign(test=[str(t) for t in tests])
         outcome = outcome[outcome["status"] == "ok"]
@@ -221,6 +216,26 @@ def _adaptive_batches(
     if summary is not None:
         summary = dataclasses.replace(summary, done=done, skipped=skipped, failed=failed)
     return all_chunks, summary
+
+
+def chunk_rows(store: Path, chunks: list[Any]) -> pd.DataFrame:
+    """The stored rows of ``chunks`` (files read in path order, as :func:`load_results` orders them).
+
+    Reads only these chunks' files: the adaptive ensemble asks after every batch, and the store
+    also holds the deterministic runs and every earlier batch (the same rows as reading the
+    whole store and keeping these chunks' hashes).
+    """
+    import pyarrow.dataset as ds
+
+    from pbr_xval.catalog import store as st
+
+    hashes = {c.content_hash() for c in chunks}
+    files = sorted({p for p in (st.chunk_path(store, c) for c in chunks) if p.is_file()})
+    if not files:
+        return st._schema().empty_table().to_pandas()
+    table = ds.dataset([str(f) for f in files], format="parquet", schema=st._schema()).to_table()
+    rows = table.to_pandas()
+    return rows[rows["chunk_hash"].isin(hashes)]
 
 
 def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
