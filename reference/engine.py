@@ -32,7 +32,7 @@ from pbr_xval.status import RunStatus
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
 
-__all__ = ["BUDGET_GRACE_S", "MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
+__all__ = ["BUDGET_CHECK_STEPS", "BUDGET_GRACE_S", "MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
 
 #: a step accepted after the step-back limit is reported as an event (the first this many
 #: of a run; ``min_timestep_hits`` counts them all)
@@ -188,6 +188,10 @@ def _record_impact(stepper: Any, rec: Any, t: float, info: dict[str, Any]) -> No
         stepper.stats.impact_ratios.append(info["ratio"])
     rec.events.append(Event("impact", t, info))
 
+
+#: the cost budget (``max_cpu_per_simulated_s``) is checked every this many steps (a thread
+#: CPU clock read; 64 before the many-step path, whose blocks end on the checks)
+BUDGET_CHECK_STEPS = 256
 
 #: steps per :func:`kernel.step_block` call (the compiled many-step path of the time loop,
 #: inertial ground motion, ``compiled = True``; the same arithmetic as the step-by-step loop,
@@ -419,7 +423,7 @@ class ReferenceEngine(EngineBase):
             slow_once = False
             while not stop and t < duration - 1e-12 * dt_nom:
                 n_check += 1
-                if budget > 0 and n_check >= 64:
+                if budget > 0 and n_check >= BUDGET_CHECK_STEPS:
                     n_check = 0
                     cpu_used = time.thread_time() - thread0
                     if cpu_used > budget * max(t, BUDGET_GRACE_S):
@@ -441,8 +445,10 @@ class ReferenceEngine(EngineBase):
                     # (no impact, general solve or step-back), recorded and counted as the
                     # step-by-step loop below would have
                     assert isinstance(load, _StepLoad)
-                    # blocks end on the cost-budget checks (every 64 steps)
-                    limit = BLOCK_STEPS if budget <= 0 else max(1, min(BLOCK_STEPS, 64 - n_check))
+                    # blocks end on the cost-budget checks
+                    limit = (
+                        BLOCK_STEPS if budget <= 0 else max(1, min(BLOCK_STEPS, BUDGET_CHECK_STEPS - n_check))
+                    )
                     plan, loads, t_after = load.planned(t, limit)
                     if plan:
                         done, code, rows, infos, lifts = stepper.step_block(state, plan, loads, rest_prm)

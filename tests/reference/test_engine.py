@@ -327,7 +327,8 @@ def test_run_over_its_cost_budget_stops_with_status_and_reason():
     assert "cost budget exceeded" in traj.message
     assert [e.kind for e in traj.events if e.kind == "budget_exceeded"] == ["budget_exceeded"]
     assert traj.diagnostics["budget_exceeded"] is True
-    assert traj.diagnostics["simulated_s"] < 0.1  # stopped at the first check (64 steps)
+    # stopped at the first check (BUDGET_CHECK_STEPS = 256 steps of 1 ms)
+    assert traj.diagnostics["simulated_s"] < 0.3
     ok = run_scene(_housner(5.0, duration=1.0), "reference")  # the default budget: untouched
     assert ok.ok and ok.diagnostics["budget_exceeded"] is False
 

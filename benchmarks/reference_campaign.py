@@ -1,0 +1,108 @@
+"""Issue 23: the reference solver's CPU cost per shake-table test against MuJoCo's (prints figures).
+
+For every selected test of a campaign (default: the shared SP1 and SP2 data, every ``--stride``-th
+test) the scenario of ``examples/validation/spN.toml`` is run under the test's table motion
+(baseline-corrected as ``pbr-xval validate`` does: ``prepare_motions`` with the default
+``Baseline``), for the motion's duration plus a 3 s tail, ``toppling.stop_at_rest = true`` (the
+validate default), ``output_dt`` 0.01 s — by the reference and by MuJoCo, one after the other in
+this process (after a warm-up run of each), and prints each test's CPU seconds and their ratio,
+then the count of tests over the goal (reference ≤ 5× MuJoCo per test) and the median ratio.
+
+Not bit-for-bit the chunked ``validate`` run (the scene is built here from the scenario, not
+through the catalog chunks), but the same rock, contact, excitation and stopping rule.
+
+Run:  python benchmarks/reference_campaign.py [--specimen 1 2] [--stride 4] [--limit N]
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import os
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+from pbr_xval.runner import run_scene  # noqa: E402
+from pbr_xval.scenario import load_scenario  # noqa: E402
+from pbr_xval.scene import compile_scene  # noqa: E402
+from pbr_xval.validation.campaign import Baseline, load_campaign  # noqa: E402
+from pbr_xval.validation.execution import prepare_motions  # noqa: E402
+
+print = functools.partial(print, flush=True)
+
+HERE = Path(__file__).resolve().parent
+SHARED = HERE.parent.parent / "shared" / "data" / "shake_table"
+GOAL_PER_TEST = 5.0
+TAIL_S = 3.0
+
+
+def _scene(scn, motion):
+    exc = {"type": "record", "path": str(motion.path), "format": "table", "units": "m/s2", "dt": motion.dt}
+    out = scn.with_value("excitation", exc).with_value("duration", float(motion.duration) + TAIL_S)
+    out = out.with_value("output_dt", 0.01).with_value("toppling.stop_at_rest", True)
+    return compile_scene(out)
+
+
+def _cpu(scene, engine):
+    c0 = time.process_time()
+    traj = run_scene(scene, engine)
+    return traj, time.process_time() - c0
+
+
+def campaign(specimen: int, stride: int, limit: int | None, folder: Path) -> list[float]:
+    scn = load_scenario(HERE.parent / "examples" / "validation" / f"sp{specimen}.toml")
+    camp = load_campaign(SHARED, specimen=specimen)
+    tests = camp.tests[::stride][:limit]
+    camp = camp.select(tests=[t.test for t in tests])
+    motions = prepare_motions(camp, Baseline(), folder / f"sp{specimen}")
+    print(f"== SP{specimen}: {len(tests)} tests (every {stride}th of the campaign)")
+    first = _scene(scn, motions[tests[0].test])
+    for engine in ("reference", "mujoco"):
+        run_scene(first, engine)  # warm-up: JIT cache, model compile, stability table
+    ratios = []
+    for t in tests:
+        scene = _scene(scn, motions[t.test])
+        tr, cr = _cpu(scene, "reference")
+        tm, cm = _cpu(scene, "mujoco")
+        ratio = cr / cm if cm > 0 else float("inf")
+        ratios.append(ratio)
+        d = tr.diagnostics
+        print(
+            f"  test {t.test:>4s}: reference {cr:6.3f} CPU s ({tr.status}, toppled {tr.toppled}, "
+            f"sim {d.get('simulated_s', float('nan')):.2f} s, impacts {d['impacts']}, NumPy steps "
+            f"{d['general_steps']}, step-backs {d['stepbacks']}), mujoco {cm:6.3f} CPU s ({tm.status}, "
+            f"toppled {tm.toppled}) -> ratio {ratio:5.2f}{'  > goal' if ratio > GOAL_PER_TEST else ''}"
+        )
+    over = sum(r > GOAL_PER_TEST for r in ratios)
+    print(
+        f"  SP{specimen}: {over} of {len(ratios)} tests cost the reference more than {GOAL_PER_TEST:g}× MuJoCo "
+        f"(goal 0); median ratio {statistics.median(ratios):.2f}, max {max(ratios):.2f}"
+    )
+    return ratios
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--specimen", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--stride", type=int, default=4, help="every n-th test of the campaign")
+    ap.add_argument("--limit", type=int, default=None, help="at most this many tests per campaign")
+    args = ap.parse_args()
+    print(
+        f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        for sp in args.specimen:
+            try:
+                campaign(sp, args.stride, args.limit, Path(tmp))
+            except Exception as exc:  # the shared data or SP2's generated mesh is missing
+                print(f"== SP{sp}: not available ({type(exc).__name__}: {exc})")
+    print(f"(load average at end {os.getloadavg()})")
+
+
+if __name__ == "__main__":
+    main()
