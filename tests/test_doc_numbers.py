@@ -382,6 +382,24 @@ def test_scenarios_sp1_bounds_and_the_alpha_dip() -> None:
     assert math.degrees(_rolling_tilt(hv - com, d200, 1e-9 * float(np.ptp(hv)))) == pytest.approx(
         first200, abs=0.005
     )
+    # the pivot 2.8 cm from the COM's vertical; the points that catch the rock beside the window
+    pivot_cm, dz_lo, dz_hi, r_lo, r_hi = _find(
+        "scenarios.md",
+        r"one base vertex ([\d.]+) cm from the COM's vertical\).*?lie ([\d.]+)–([\d.]+) mm above the base plane, "
+        r"(\d)–(\d) cm from the pivot",
+    )
+    z0 = hv[:, 2].min()
+    sup = hv[hv[:, 2] <= z0 + 1e-9 * np.ptp(hv)]
+    d337 = np.array([math.cos(math.radians(337.0)), math.sin(math.radians(337.0)), 0.0])
+    pivot = sup[int(np.argmax((sup - com) @ d337))]
+    assert 100 * math.hypot(*(pivot - com)[:2]) == pytest.approx(pivot_cm, abs=0.05)
+    lifted = hv[(hv[:, 2] > z0 + 1e-6) & (hv[:, 2] < z0 + 0.003)]
+    dist = np.hypot(*(lifted - pivot)[:, :2].T)
+    nearest = lifted[np.argsort(dist)[:2]]
+    assert np.all((nearest[:, 2] - z0) * 1e3 >= dz_lo - 0.05) and np.all(
+        (nearest[:, 2] - z0) * 1e3 <= dz_hi + 0.05
+    )
+    assert np.all(np.sort(dist)[:2] * 100 >= r_lo) and np.all(np.sort(dist)[:2] * 100 <= r_hi + 0.05)
     # independent: inside the window the rock pivots on one vertex, α = atan(b_s/h) (closed form)
     for deg in (336.5, 338.0):
         d = np.array([math.cos(math.radians(deg)), math.sin(math.radians(deg)), 0.0])
