@@ -21,9 +21,9 @@ Usage::
 
     python benchmarks/ensemble.py [--tests-every K | --limit N] [--members 16] [--workers 2]
 
-All 196 tests by default: the three runs cost about 185 CPU-s per 13 tests (measured 2026-11-26,
-``--tests-every 16``, AMD EPYC 2 cores), so about 25 min on a quiet 2-core machine for all 196
-(``--no-adaptive``: about 17 min); the last line projects the full run from the subset's own time.
+All 196 tests by default: the three runs cost about 160 CPU-s per 13 tests (measured 2026-11-26,
+``--tests-every 16``, AMD EPYC 2 cores), so about 20 min on a quiet 2-core machine for all 196
+(``--no-adaptive``: about 14 min); the last line projects the full run from the subset's own time.
 The machine's load average is printed at the start and the end: on a shared machine the wall times
 include other processes' load, and the CPU figures (and the projection from them) are the ones to
 compare.
