@@ -39,3 +39,28 @@ def test_batches_share_the_workers_and_results_match(tmp_path: Path) -> None:
     shared = load_results(tmp_path / "shared").sort_values("motion_id")[cols].reset_index(drop=True)
     alone = load_results(tmp_path / "fresh").sort_values("motion_id")[cols].reset_index(drop=True)
     assert shared.equals(alone)  # bit-identical outcomes with or without the shared pool
+
+
+def test_a_crash_renews_the_shared_pool_and_the_next_batch_runs(tmp_path: Path, monkeypatch) -> None:
+    import os
+    import sys
+
+    here = Path(__file__).resolve().parent
+    sys.path.insert(0, str(here))
+    from conftest import write_catalog
+
+    from pbr_xval.catalog import load_catalog
+
+    crash_rock = (
+        '\n[[rock]]\nid = "crash_me"\nshape = "box"\nhalf_extents = [0.2, 0.2, 0.6]\ndensity = 2400.0\n'
+    )
+    monkeypatch.setenv("PYTHONPATH", str(here) + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    cat = load_catalog(write_catalog(tmp_path, extra_rocks=crash_rock))
+    chunks = build_chunks(cat, engines=["crash_engine:CrashEngine"])
+    bad = [c for c in chunks if c.rock["id"] == "crash_me"]
+    good = [c for c in chunks if c.rock["id"] != "crash_me"]
+    with LocalPool(2) as pool:
+        first = run_chunks(bad + good[:1], tmp_path / "out", progress=False, pool=pool)
+        second = run_chunks(good[1:], tmp_path / "out", progress=False, pool=pool)
+    assert first.failed == len(bad) and first.done == 1
+    assert second.failed == 0 and second.done == len(good) - 1
