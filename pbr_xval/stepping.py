@@ -26,6 +26,16 @@ per-step ones, dated at the first sample at or after the step (≤ ``output_dt``
 figures are those of the samples. The first-crossing criteria get a row after every step. Once
 the rock reaches half its smallest critical tilt the blocks shrink to an eighth, so a run that
 stops on toppling overshoots by at most that many rows.
+
+The one exception: the ``reference`` engine (:mod:`pbr_xval.reference.engine`) does not run on
+:func:`run_steps`; it drives :class:`Recorder` itself (``Recorder.record`` at the output times and
+near toppling, ``Recorder.record_block`` for the held samples once the rock is at rest). Its time
+step is event-driven, not a fixed grid of steps k0 … k1 − 1: a step that penetrates deeper than
+the contact band ε is taken back and retried shorter (step-back), impacts end a step early and
+breakpoints of the ground motion cut it, so the number and length of its steps are known only as
+they are taken, which the ``Stepper.advance(k0, k1, block)`` contract cannot express. Everything
+that decides a verdict (sampling rule, toppling criterion, NaN/explosion, diagnostics) is still
+the :class:`Recorder`'s, so its trajectories mean what every other engine's mean.
 """
 
 from __future__ import annotations
