@@ -185,8 +185,12 @@ def run_members(
     executor: str = "local",
     progress: bool = True,
     console: Any = None,
+    pool: Any = None,
 ) -> tuple[pd.DataFrame, Any]:
-    """Run ``members`` of ``scn`` into ``store`` (resuming); (one row per member, sweep summary)."""
+    """Run ``members`` of ``scn`` into ``store`` (resuming); (one row per member, sweep summary).
+
+    ``pool``: a :class:`~pbr_xval.catalog.sweep.LocalPool` kept across calls (adaptive batches).
+    """
     from pbr_xval.catalog.store import load_results
     from pbr_xval.catalog.sweep import run_chunks
 
@@ -198,7 +202,7 @@ def run_members(
     )  # fmt: skip
     summary = run_chunks(
         chunks, store, executor=executor, workers=workers, progress=progress, console=console,
-        description="predict",
+        description="predict", pool=pool,
     )  # fmt: skip
     hashes = {c.content_hash() for c in chunks}
     rows = load_results(store)
@@ -337,24 +341,31 @@ def run_predict(
         overall, per, failed = _estimates(df, eng_list)
         stop = f"all {n_max} members run"
     else:
+        import contextlib
+
+        from pbr_xval.catalog.sweep import LocalPool
+
         stop = ""
         upto = 0
         df = pd.DataFrame()
-        while upto < n_max:
-            upto = min(n_max, upto + batch)
-            df, summary = run_members(
-                scn, all_members[:upto], store, batch=batch, settings=settings, profile=profile,
-                workers=workers, executor=executor, progress=progress, console=console,
-            )  # fmt: skip
-            failed_chunks += summary.failed
-            overall, per, failed = _estimates(df, eng_list)
-            batches.append({"members": upto, **overall.to_dict()})
-            if on_batch is not None:
-                on_batch(upto, overall)
-            rule = stop_rule(overall, half_width)
-            if rule is not None:
-                stop = f"{rule} after {upto} members"
-                break
+        # one pool for every batch: the workers start once (not once per batch of members)
+        pool_ctx: Any = LocalPool(workers) if executor == "local" else contextlib.nullcontext()
+        with pool_ctx as pool:
+            while upto < n_max:
+                upto = min(n_max, upto + batch)
+                df, summary = run_members(
+                    scn, all_members[:upto], store, batch=batch, settings=settings, profile=profile,
+                    workers=workers, executor=executor, progress=progress, console=console, pool=pool,
+                )  # fmt: skip
+                failed_chunks += summary.failed
+                overall, per, failed = _estimates(df, eng_list)
+                batches.append({"members": upto, **overall.to_dict()})
+                if on_batch is not None:
+                    on_batch(upto, overall)
+                rule = stop_rule(overall, half_width)
+                if rule is not None:
+                    stop = f"{rule} after {upto} members"
+                    break
         if not stop:
             stop = f"the member limit ({n_max}) was reached with half-width {overall.half_width:.3f} > {half_width:g}"
     return PredictResult(
