@@ -78,7 +78,62 @@ def _drive(scene: Scene) -> tuple[Any, Any, tuple[float, ...]]:
     return accel, accel_v, bps
 
 
-class HousnerEngine(EngineBase):
+class _AnalyticalEngine(EngineBase):
+    """What the two analytical adapters share: versions, the solver keywords, the trajectory."""
+
+    def versions(self) -> dict[str, str]:
+        from pbr_xval.version import __version__
+
+        return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
+
+    @staticmethod
+    def _solver_kwargs(scene: Scene, s: Mapping[str, Any], eta: float | None) -> dict[str, Any]:
+        """The keywords both solvers take from the scene and the settings (the drive excepted)."""
+        _, accel_v, bps = _drive(scene)
+        return {
+            "g": scene.gravity,
+            "accel_v": accel_v,
+            "breakpoints": bps,
+            "rtol": s["rtol"],
+            "atol": s["atol"],
+            "max_step": np.inf if s["max_step"] is None else float(s["max_step"]),
+            "dense_dt": scene.output_dt,
+            "omega_rest": s["omega_rest"],
+            "decision": "physical" if scene.toppling.criterion == "physical" else "first_crossing",
+            "free_after": scene.excitation_end,
+            "impact_ratio": eta,
+        }
+
+    def _trajectory(
+        self,
+        scene: Scene,
+        s: dict[str, Any],
+        model: str,
+        *,
+        t: np.ndarray,
+        com: np.ndarray,
+        quat: np.ndarray,
+        omega: np.ndarray,
+        events: list[Event],
+        diagnostics: dict[str, Any],
+    ) -> Trajectory:
+        return Trajectory(
+            engine=self.name,
+            t=t,
+            com=com,
+            quat=quat,
+            omega=omega,
+            events=events,
+            diagnostics=diagnostics,
+            settings=s,
+            versions=self.versions(),
+            scenario_hash=scene.scenario_hash,
+            scene_info=scene.info() | {"model": model},
+            excitation_axis=scene.direction.copy(),
+        )
+
+
+class HousnerEngine(_AnalyticalEngine):
     """Planar two-pivot rocking (Housner's block generalised); see the module docstring."""
 
     name: ClassVar[str] = "housner"
@@ -104,11 +159,6 @@ class HousnerEngine(EngineBase):
             }
         }
 
-    def versions(self) -> dict[str, str]:
-        from pbr_xval.version import __version__
-
-        return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
-
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.analytical.closed_form import housner1963_halfsine
         from pbr_xval.analytical.rocking import TwoPivotBody, simulate_rocking
@@ -128,7 +178,7 @@ class HousnerEngine(EngineBase):
             )
         pm = scene.planar_model()
         body = TwoPivotBody(pm.mass, pm.inertia, pm.left, pm.right)
-        accel, accel_v, bps = _drive(scene)
+        accel, _, _ = _drive(scene)
         factor = 1.0
         crit = scene.toppling
         if crit.criterion == "critical_tilt":
@@ -140,22 +190,12 @@ class HousnerEngine(EngineBase):
             body,
             accel,
             scene.duration,
-            g=scene.gravity,
-            accel_v=accel_v,
-            breakpoints=bps,
             variant="linearized" if variant == "housner1963" else variant,
             theta0=scene.theta0,
             omega0=scene.omega0,
-            rtol=s["rtol"],
-            atol=s["atol"],
-            max_step=np.inf if s["max_step"] is None else float(s["max_step"]),
-            dense_dt=scene.output_dt,
             topple_factor=factor,
-            omega_rest=s["omega_rest"],
-            decision="physical" if crit.criterion == "physical" else "first_crossing",
             down_angle=math.radians(crit.down_angle_deg),
-            free_after=scene.excitation_end,
-            impact_ratio=eta,
+            **self._solver_kwargs(scene, s, eta),
         )
         events = _events(sol.events)
         diagnostics: dict[str, Any] = {
@@ -195,19 +235,16 @@ class HousnerEngine(EngineBase):
                 keep = t <= t_end_pulse
                 t, theta, omega = t[keep], theta[keep], omega[keep]
         com, quat, omv = self._kinematics(scene, body, theta, omega)
-        return Trajectory(
-            engine=self.name,
+        return self._trajectory(
+            scene,
+            s,
+            f"two-pivot rocking, {variant}",
             t=t,
             com=com,
             quat=quat,
             omega=omv,
             events=events,
             diagnostics=diagnostics,
-            settings=s,
-            versions=self.versions(),
-            scenario_hash=scene.scenario_hash,
-            scene_info=scene.info() | {"model": f"two-pivot rocking, {variant}"},
-            excitation_axis=scene.direction.copy(),
         )
 
     @staticmethod
@@ -228,7 +265,7 @@ class HousnerEngine(EngineBase):
         return com, quat, omv
 
 
-class CurvedBaseEngine(EngineBase):
+class CurvedBaseEngine(_AnalyticalEngine):
     """The seed's curved-base block (science.md §8): rolling on circular arcs, flat slap at θ = 0."""
 
     name: ClassVar[str] = "curved_base"
@@ -254,11 +291,6 @@ class CurvedBaseEngine(EngineBase):
             }
         }
 
-    def versions(self) -> dict[str, str]:
-        from pbr_xval.version import __version__
-
-        return {"pbr_xval": __version__, "scipy": _scipy_version(), "numpy": np.__version__}
-
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
         from pbr_xval.analytical.curved_base import CurvedBaseLamina, simulate_curved_base
         from pbr_xval.scenario import CurvedBaseRock
@@ -281,26 +313,16 @@ class CurvedBaseEngine(EngineBase):
             assert rock.mass is not None  # the scenario requires density or mass
             area_depth = lam.mass  # density 1 → volume
             lam = CurvedBaseLamina(rock.H, rock.r, rock.h, depth=rock.depth, density=rock.mass / area_depth)
-        accel, accel_v, bps = _drive(scene)
+        accel, _, _ = _drive(scene)
         drive = accel if sign > 0 else (lambda t: -accel(t))
         sol = simulate_curved_base(
             lam,
             drive,
             scene.duration,
-            g=scene.gravity,
-            accel_v=accel_v,
-            breakpoints=bps,
             theta0=sign * scene.theta0,
             omega0=sign * scene.omega0,
-            rtol=s["rtol"],
-            atol=s["atol"],
-            max_step=np.inf if s["max_step"] is None else float(s["max_step"]),
-            dense_dt=scene.output_dt,
             clamp=s["clamp"],
-            omega_rest=s["omega_rest"],
-            decision="physical" if scene.toppling.criterion == "physical" else "first_crossing",
-            free_after=scene.excitation_end,
-            impact_ratio=_impact_ratio(s),
+            **self._solver_kwargs(scene, s, _impact_ratio(s)),
         )
         events = _events(sol.events)
         crit = scene.toppling
@@ -317,8 +339,10 @@ class CurvedBaseEngine(EngineBase):
             + (sign * sol.x_com)[:, None] * d[None, :]
             + (sol.z_com - z0)[:, None] * ez[None, :]
         )
-        return Trajectory(
-            engine=self.name,
+        return self._trajectory(
+            scene,
+            s,
+            "curved base, rolling without slip (science.md §8)",
             t=sol.t,
             com=com,
             quat=axis_angle_quat(e, theta),
@@ -335,9 +359,4 @@ class CurvedBaseEngine(EngineBase):
                 "mass_exact": lam.mass,
                 "y_G0_exact": z0,
             },
-            settings=s,
-            versions=self.versions(),
-            scenario_hash=scene.scenario_hash,
-            scene_info=scene.info() | {"model": "curved base, rolling without slip (science.md §8)"},
-            excitation_axis=scene.direction.copy(),
         )

@@ -31,7 +31,7 @@ from typing import Literal
 
 import numpy as np
 
-from pbr_xval.analytical.rocking import HybridModel, RockingSolution, _integrate_hybrid
+from pbr_xval.analytical.rocking import HybridModel, RockingSolution, solve_hybrid
 
 __all__ = [
     "CurvedBaseLamina",
@@ -358,11 +358,10 @@ def simulate_curved_base(
         norm_angle=lambda _s: norm,
         critical_angle=lambda _s: th_top,
     )
-    if free_after is None:
-        free_after = max(breakpoints, default=0.0)
-    res = _integrate_hybrid(
+    res = solve_hybrid(
         model,
         t_end,
+        free_after,
         breakpoints=breakpoints,
         theta0=theta0,
         omega0=omega0,
@@ -374,24 +373,8 @@ def simulate_curved_base(
         zeno_dt=zeno_dt,
         max_impacts=max_impacts,
         physical=physical,
-        free_after=float(free_after),
     )
-    x = body.x_com(res.theta)
-    z = body.z_com(res.theta)
-    peak = clamp if res.toppled else min(float(np.max(np.abs(x))) if x.size else 0.0, clamp)
-    return CurvedBaseSolution(
-        t=res.t,
-        theta=res.theta,
-        omega=res.omega,
-        events=res.events,
-        toppled=res.toppled,
-        toppled_at=res.toppled_at,
-        peak_theta_ratio=res.peak_theta_ratio,
-        n_impacts=res.n_impacts,
-        rhs_evals=res.rhs_evals,
-        peaks=res.peaks,
-        undecided=res.undecided,
-        x_com=x,
-        z_com=z,
-        peak_com_disp=peak,
-    )
+    x = body.x_com(res["theta"])
+    z = body.z_com(res["theta"])
+    peak = clamp if res["toppled"] else min(float(np.max(np.abs(x))) if x.size else 0.0, clamp)
+    return CurvedBaseSolution(**res, x_com=x, z_com=z, peak_com_disp=peak)

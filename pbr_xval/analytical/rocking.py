@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Literal
 
 import numpy as np
@@ -316,6 +316,12 @@ def _integrate_hybrid(
     body has toppled once it is past ``critical_angle`` and not moving back (no restoring moment and
     nothing to reverse the motion). The toppled event's ``t`` is the last outward crossing of the
     critical angle; ``decided_at`` and ``rule`` say when and why.
+
+    Long on purpose: one event-driven state machine (rest → rise → fall → impact/re-rise →
+    topple, restarted at each breakpoint) whose state — side, stage, t, θ, θ̇, the output pieces,
+    the counters — every branch reads and writes; split into functions it would pass that state
+    in and out of each one, and the loop is where the analytical reference's bit-exact results
+    come from.
     """
     if t_end <= 0:
         raise ValueError("t_end must be positive")
@@ -563,6 +569,18 @@ def _integrate_hybrid(
     )
 
 
+def solve_hybrid(model: HybridModel, t_end: float, free_after: float | None, **kw: Any) -> dict[str, Any]:
+    """:func:`_integrate_hybrid` as both solvers call it; the fields of a :class:`RockingSolution`.
+
+    ``free_after`` None means the last breakpoint (the end of the excitation); ``kw`` are the
+    other keywords of :func:`_integrate_hybrid`.
+    """
+    if free_after is None:
+        free_after = max(kw.get("breakpoints", ()), default=0.0)
+    r = _integrate_hybrid(model, t_end, free_after=float(free_after), **kw)
+    return {f.name: getattr(r, f.name) for f in fields(RockingSolution)}
+
+
 # ---------------------------------------------------------------------------------------------------------------
 # Public solver
 # ---------------------------------------------------------------------------------------------------------------
@@ -726,34 +744,21 @@ def simulate_rocking(
         norm_angle=lambda s: al[s],
         critical_angle=lambda s: al[s],
     )
-    if free_after is None:
-        free_after = max(breakpoints, default=0.0)
-    r = _integrate_hybrid(
-        model,
-        t_end,
-        breakpoints=breakpoints,
-        theta0=theta0,
-        omega0=omega0,
-        rtol=rtol,
-        atol=atol,
-        max_step=max_step,
-        dense_dt=dense_dt,
-        omega_rest=omega_rest,
-        zeno_dt=zeno_dt,
-        max_impacts=max_impacts,
-        physical=physical,
-        free_after=float(free_after),
-    )
     return RockingSolution(
-        t=r.t,
-        theta=r.theta,
-        omega=r.omega,
-        events=r.events,
-        toppled=r.toppled,
-        toppled_at=r.toppled_at,
-        peak_theta_ratio=r.peak_theta_ratio,
-        n_impacts=r.n_impacts,
-        rhs_evals=r.rhs_evals,
-        peaks=r.peaks,
-        undecided=r.undecided,
+        **solve_hybrid(
+            model,
+            t_end,
+            free_after,
+            breakpoints=breakpoints,
+            theta0=theta0,
+            omega0=omega0,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            dense_dt=dense_dt,
+            omega_rest=omega_rest,
+            zeno_dt=zeno_dt,
+            max_impacts=max_impacts,
+            physical=physical,
+        )
     )

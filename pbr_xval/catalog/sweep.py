@@ -63,6 +63,13 @@ class SweepSummary:
             "failures": self.failures, "dashboard": self.dashboard,
         }  # fmt: skip
 
+    def fail(self, spec: ChunkSpec, reason: str) -> None:
+        """Count ``spec`` as failed, with its record (chunk hash, rock, engine, reason); both executors."""
+        self.failed += 1
+        self.failures.append(
+            {"chunk": spec.content_hash(), "rock": spec.rock["id"], "engine": spec.engine, "reason": reason}
+        )
+
     def add(self, res: dict[str, Any]) -> None:
         if res.get("skipped"):
             self.skipped += 1
@@ -191,15 +198,7 @@ def _local(
                     broken = True
                     suspects.append(spec)
                 except Exception as exc:  # an exception escaping execute_chunk (e.g. disk full)
-                    summary.failed += 1
-                    summary.failures.append(
-                        {
-                            "chunk": spec.content_hash(),
-                            "rock": spec.rock["id"],
-                            "engine": spec.engine,
-                            "reason": f"{type(exc).__name__}: {exc}",
-                        }
-                    )
+                    summary.fail(spec, f"{type(exc).__name__}: {exc}")
                     tick()
             if broken:
                 # every chunk still in the pool is lost with it: collect and re-run alone
@@ -219,15 +218,7 @@ def _local(
                     if res is not None:
                         summary.add(res)
                     else:
-                        summary.failed += 1
-                        summary.failures.append(
-                            {
-                                "chunk": spec.content_hash(),
-                                "rock": spec.rock["id"],
-                                "engine": spec.engine,
-                                "reason": f"failed twice; {reason}",
-                            }
-                        )
+                        summary.fail(spec, f"failed twice; {reason}")
                     tick()
                 pool = shared.renew() if shared is not None else _new_pool(workers)
     finally:
@@ -284,25 +275,9 @@ def _dask(
                 try:
                     summary.add(f.result())
                 except KilledWorker as exc:
-                    summary.failed += 1
-                    summary.failures.append(
-                        {
-                            "chunk": spec.content_hash(),
-                            "rock": spec.rock["id"],
-                            "engine": spec.engine,
-                            "reason": f"worker died twice running the chunk (KilledWorker: {exc})",
-                        }
-                    )
+                    summary.fail(spec, f"worker died twice running the chunk (KilledWorker: {exc})")
                 except Exception as exc:
-                    summary.failed += 1
-                    summary.failures.append(
-                        {
-                            "chunk": spec.content_hash(),
-                            "rock": spec.rock["id"],
-                            "engine": spec.engine,
-                            "reason": f"{type(exc).__name__}: {exc}",
-                        }
-                    )
+                    summary.fail(spec, f"{type(exc).__name__}: {exc}")
                 tick()
         finally:
             client.close()
