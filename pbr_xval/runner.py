@@ -11,7 +11,7 @@ from pbr_xval.engine import Engine, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
 from pbr_xval.scene import Scene, compile_scene
 
-__all__ = ["effective_settings", "run_scenario", "run_scene"]
+__all__ = ["effective_settings", "run_resolved", "run_scenario", "run_scene"]
 
 
 def effective_settings(engine: Engine, scene: Scene, overrides: Mapping[str, Any] | None) -> dict[str, Any]:
@@ -30,9 +30,20 @@ def effective_settings(engine: Engine, scene: Scene, overrides: Mapping[str, Any
 
 
 def run_scene(scene: Scene, engine: str | Engine, settings: Mapping[str, Any] | None = None) -> Trajectory:
-    """Simulate a compiled scene; ``wall_time`` and provenance are filled in."""
+    """Simulate a compiled scene; ``wall_time`` and provenance are filled in.
+
+    ``settings`` are overrides; they are resolved here, once (:func:`effective_settings`).
+    """
     eng = get_engine(engine)
-    full = effective_settings(eng, scene, settings)
+    return run_resolved(scene, eng, effective_settings(eng, scene, settings))
+
+
+def run_resolved(scene: Scene, eng: Engine, full: dict[str, Any]) -> Trajectory:
+    """Simulate a compiled scene with settings already resolved by :func:`effective_settings`.
+
+    For a caller that resolves the settings first (to report a bad setting before the run, as
+    ``pbr-xval run`` does) so that they are not resolved a second time.
+    """
     t0 = time.perf_counter()
     traj = eng.simulate(scene, full)
     traj.wall_time = time.perf_counter() - t0

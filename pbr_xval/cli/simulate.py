@@ -107,7 +107,7 @@ def run(
     engine and its settings, and the output path (an existing file is never replaced silently).
     """
     from pbr_xval.engine import EngineNotAvailable, EngineSettingsError, NotApplicable, get_engine
-    from pbr_xval.runner import effective_settings, run_scene
+    from pbr_xval.runner import effective_settings, run_resolved
     from pbr_xval.scenario import ScenarioError
     from pbr_xval.scene import compile_scene
 
@@ -163,7 +163,7 @@ def run(
         raise _fail(f"{scenario}: {exc}") from None
     try:
         with console.status(f"simulating {scn.name} with {engine} ..."):
-            traj = run_scene(scene, eng, full)
+            traj = run_resolved(scene, eng, full)
     except (EngineNotAvailable, EngineSettingsError, NotApplicable) as exc:
         raise _fail(str(exc)) from None
     if member_info is not None:
