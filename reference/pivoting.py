@@ -37,6 +37,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 __all__ = ["VERIFY_RTOL", "LCPResult", "dantzig", "lemke", "solve_lcp"]
 
@@ -266,42 +267,17 @@ def lemke(M: np.ndarray, q: np.ndarray, *, max_pivots: int | None = None, tol: f
     if max_pivots is None:
         max_pivots = 50 * (n + 1)
     _, q_scale = _scales(M, q)
-    z0 = 2 * n
     rhs = 2 * n + 1
     T = np.hstack([np.eye(n), -M, -np.ones((n, 1)), q[:, None]])
     basis = np.arange(n)  # variable ids: w_i -> i, z_i -> n + i, z0 -> 2n
-
-    def pivot(r: int, c: int) -> None:
-        T[r] /= T[r, c]
-        col = T[:, c].copy()
-        col[r] = 0.0
-        T[...] -= np.outer(col, T[r])
-        T[:, c] = 0.0
-        T[r, c] = 1.0
-        basis[r] = c
-
-    # initial pivot: z0 enters, the most negative q leaves (largest index on ties)
-    qmin = float(q.min())
-    ties = np.flatnonzero(q <= qmin + tol * q_scale)
-    r = int(ties.max())
-    leaving = int(basis[r])
-    pivot(r, z0)
-    pivots = 1
+    # the pivoting loop, compiled (:func:`_lemke_loop`: the same arithmetic as the NumPy
+    # version it replaced, bit for bit)
+    code, pivots, entering = _lemke_loop(T, basis, q, float(q_scale), int(max_pivots), float(tol))
     status, message = "max_pivots", f"no solution within {max_pivots} pivots"
-    while pivots < max_pivots:
-        entering = leaving + n if leaving < n else leaving - n
-        col = T[:, entering]
-        cand = np.flatnonzero(col > tol * max(1.0, float(np.max(np.abs(col)))))
-        if cand.size == 0:
-            status, message = "ray", f"secondary ray on entering variable {entering}"
-            break
-        r = _lex_min_ratio(T, col, cand, basis, n, rhs, z0, tol)
-        leaving = int(basis[r])
-        pivot(r, entering)
-        pivots += 1
-        if leaving == z0:
-            status, message = "ok", ""
-            break
+    if code == 1:
+        status, message = "ok", ""
+    elif code == 2:
+        status, message = "ray", f"secondary ray on entering variable {entering}"
     x = np.zeros(2 * n + 1)
     x[basis] = T[:, rhs]
     z = x[n : 2 * n]
@@ -312,19 +288,75 @@ def lemke(M: np.ndarray, q: np.ndarray, *, max_pivots: int | None = None, tol: f
     return _finish(M, q, z, clamped, pivots=pivots, status="ok", method="lemke")
 
 
-def _lex_min_ratio(
-    T: np.ndarray,
-    col: np.ndarray,
-    cand: np.ndarray,
-    basis: np.ndarray,
-    n: int,
-    rhs: int,
-    z0: int,
-    tol: float,
-) -> int:
-    """Lexicographic minimum-ratio test over rows ``cand`` of the Lemke tableau.
+@njit(cache=True)
+def _lemke_loop(T, basis, q, q_scale, max_pivots, tol):  # pragma: no cover - compiled
+    """Lemke's pivots on the tableau ``T`` (n, 2n + 2) and ``basis`` (n,), in place: the
+    initial pivot (z0 enters, the most negative q leaves, largest index on ties), then
+    complementary pivots with the lexicographic ratio test of :func:`_lex_min_ratio_c`.
+    Returns (code: 1 z0 left (solution), 2 secondary ray, 0 pivot cap; pivots; the last
+    entering variable)."""
+    n = basis.size
+    z0 = 2 * n
+    rhs = 2 * n + 1
+    qmin = np.inf
+    for i in range(n):
+        qmin = min(qmin, q[i])
+    r = -1
+    for i in range(n):
+        if q[i] <= qmin + tol * q_scale:
+            r = i
+    leaving = basis[r]
+    _lemke_pivot(T, basis, r, z0)
+    pivots = 1
+    entering = -1
+    cand = np.empty(n, dtype=np.int64)
+    while pivots < max_pivots:
+        entering = leaving + n if leaving < n else leaving - n
+        cmax = 0.0
+        for i in range(n):
+            cmax = max(cmax, abs(T[i, entering]))
+        thr = tol * max(1.0, cmax)
+        m = 0
+        for i in range(n):
+            if T[i, entering] > thr:
+                cand[m] = i
+                m += 1
+        if m == 0:
+            return 2, pivots, entering
+        r = _lex_min_ratio_c(T, entering, cand[:m].copy(), basis, n, rhs, z0, tol)
+        leaving = basis[r]
+        _lemke_pivot(T, basis, r, entering)
+        pivots += 1
+        if leaving == z0:
+            return 1, pivots, entering
+    return 0, pivots, entering
 
-    Row ``i`` ties with the minimum ratio ``r*`` when ``T[i, k] - r* col_i`` is within
+
+@njit(cache=True)
+def _lemke_pivot(T, basis, r, c):  # pragma: no cover - compiled
+    """T[r] /= T[r, c]; T -= outer(column c with row r zeroed, T[r]); column c := e_r."""
+    rows, cols = T.shape
+    piv = T[r, c]
+    for j in range(cols):
+        T[r, j] /= piv
+    col = T[:, c].copy()
+    col[r] = 0.0
+    for i in range(rows):
+        ci = col[i]
+        for j in range(cols):
+            T[i, j] -= ci * T[r, j]
+    for i in range(rows):
+        T[i, c] = 0.0
+    T[r, c] = 1.0
+    basis[r] = c
+
+
+@njit(cache=True)
+def _lex_min_ratio_c(T, c, cand, basis, n, rhs, z0, tol):  # pragma: no cover - compiled
+    """Lexicographic minimum-ratio test over rows ``cand`` of the Lemke tableau, entering
+    column ``c``.
+
+    Row ``i`` ties with the minimum ratio ``r*`` when ``T[i, k] - r* T[i, c]`` is within
     ``tol * max|T[:, k]|`` (roundoff of that tableau column), so near-degenerate
     right-hand sides produced by cancellation are treated as ties and resolved
     lexicographically instead of by noise.  Ties at the first level go to ``z0`` if
@@ -332,21 +364,38 @@ def _lex_min_ratio(
     the lowest row index breaks any remaining tie.
     """
     tie = cand
-    for level, k in enumerate([rhs, *range(n)]):
-        vals = T[tie, k]
-        if k == rhs:
-            vals = np.maximum(vals, 0.0)
-        ratios = vals / col[tie]
-        rmin = float(ratios.min())
-        noise = tol * max(float(np.max(np.abs(T[:, k]))), 1e-300)
-        tie = tie[vals - rmin * col[tie] <= noise]
+    for level in range(n + 1):
+        k = rhs if level == 0 else level - 1
+        m = tie.size
+        vals = np.empty(m)
+        rmin = np.inf
+        for a in range(m):
+            v = T[tie[a], k]
+            if k == rhs:
+                v = max(v, 0.0)
+            vals[a] = v
+            rmin = min(rmin, v / T[tie[a], c])
+        tmax = 0.0
+        for i in range(T.shape[0]):
+            tmax = max(tmax, abs(T[i, k]))
+        noise = tol * max(tmax, 1e-300)
+        keep = np.empty(m, dtype=np.int64)
+        mk = 0
+        for a in range(m):
+            if vals[a] - rmin * T[tie[a], c] <= noise:
+                keep[mk] = tie[a]
+                mk += 1
+        tie = keep[:mk].copy()
         if level == 0 and tie.size > 1:
-            z0_rows = tie[basis[tie] == z0]
-            if z0_rows.size:
-                return int(z0_rows[0])
+            for a in range(tie.size):
+                if basis[tie[a]] == z0:
+                    return tie[a]
         if tie.size == 1:
             break
-    return int(tie.min())
+    best = tie[0]
+    for a in range(tie.size):
+        best = min(best, tie[a])
+    return best
 
 
 # --------------------------------------------------------------------------------------

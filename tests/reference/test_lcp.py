@@ -602,3 +602,95 @@ def test_friction_random_box_configurations() -> None:
             np.testing.assert_allclose(u_cone, u_pyr, atol=1e-9 * G)
     assert checked >= 10, checked  # measured: 15 of the 25 sets stick
     assert "pgs_cone" in methods
+
+
+# ----------------------------------------------------------------------------- compiled Lemke (issue 23)
+def _lemke_numpy(M: np.ndarray, q: np.ndarray, max_pivots: int, tol: float = 1e-12):
+    """The NumPy pivoting loop that ``pivoting._lemke_loop`` replaced (reference for the
+    bit-for-bit test): (z, pivots, status)."""
+    n = q.size
+    q_scale = float(np.max(np.abs(q)))
+    z0, rhs = 2 * n, 2 * n + 1
+    T = np.hstack([np.eye(n), -M, -np.ones((n, 1)), q[:, None]])
+    basis = np.arange(n)
+
+    def pivot(r: int, c: int) -> None:
+        T[r] /= T[r, c]
+        col = T[:, c].copy()
+        col[r] = 0.0
+        T[...] -= np.outer(col, T[r])
+        T[:, c] = 0.0
+        T[r, c] = 1.0
+        basis[r] = c
+
+    def lex_min_ratio(col: np.ndarray, cand: np.ndarray) -> int:
+        tie = cand
+        for level, k in enumerate([rhs, *range(n)]):
+            vals = T[tie, k]
+            if k == rhs:
+                vals = np.maximum(vals, 0.0)
+            rmin = float((vals / col[tie]).min())
+            noise = tol * max(float(np.max(np.abs(T[:, k]))), 1e-300)
+            tie = tie[vals - rmin * col[tie] <= noise]
+            if level == 0 and tie.size > 1:
+                z0_rows = tie[basis[tie] == z0]
+                if z0_rows.size:
+                    return int(z0_rows[0])
+            if tie.size == 1:
+                break
+        return int(tie.min())
+
+    r = int(np.flatnonzero(q <= float(q.min()) + tol * q_scale).max())
+    leaving = int(basis[r])
+    pivot(r, z0)
+    pivots, status = 1, "max_pivots"
+    while pivots < max_pivots:
+        entering = leaving + n if leaving < n else leaving - n
+        col = T[:, entering]
+        cand = np.flatnonzero(col > tol * max(1.0, float(np.max(np.abs(col)))))
+        if cand.size == 0:
+            status = "ray"
+            break
+        r = lex_min_ratio(col, cand)
+        leaving = int(basis[r])
+        pivot(r, entering)
+        pivots += 1
+        if leaving == z0:
+            status = "ok"
+            break
+    x = np.zeros(2 * n + 1)
+    x[basis] = T[:, rhs]
+    return x[n : 2 * n], pivots, status
+
+
+@pytest.mark.parametrize("kind", ["psd", "singular", "general", "degenerate"])
+def test_compiled_lemke_pivots_as_the_numpy_loop(kind: str) -> None:
+    """pivoting.lemke's compiled loop takes the NumPy loop's pivots: same count, same status,
+    the same z before the final polish, bit for bit."""
+    from pbr_xval.reference import pivoting
+
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        n = int(rng.integers(1, 13))
+        g = rng.standard_normal((n, n))
+        if kind == "psd":
+            M = g @ g.T
+        elif kind == "singular":
+            h = g[:, : max(1, n // 2)]
+            M = h @ h.T
+        elif kind == "general":
+            M = g + n * np.eye(n) * rng.uniform(0, 1)
+        else:
+            M = np.round(g @ g.T)
+        q = rng.standard_normal(n) if kind != "degenerate" else np.round(rng.standard_normal(n))
+        if np.all(q >= 0):
+            q[0] = -1.0
+        want_z, want_piv, want_status = _lemke_numpy(M, q, 50 * (n + 1))
+        T = np.hstack([np.eye(n), -M, -np.ones((n, 1)), q[:, None]])
+        basis = np.arange(n)
+        code, piv, _ = pivoting._lemke_loop(T, basis, q, float(np.max(np.abs(q))), 50 * (n + 1), 1e-12)
+        x = np.zeros(2 * n + 1)
+        x[basis] = T[:, 2 * n + 1]
+        assert piv == want_piv
+        assert {1: "ok", 2: "ray", 0: "max_pivots"}[code] == want_status
+        np.testing.assert_array_equal(x[n : 2 * n], want_z)
