@@ -208,6 +208,7 @@ def _warm_up(stepper: Any, state: Any) -> None:
     from its cache, once per process. Never raises."""
     global _WARM
     from pbr_xval.reference.dynamics import StepRejected
+    from pbr_xval.reference.pivoting import lemke
 
     s = state.copy()
     s.v = s.v + np.array([0.0, 0.0, -0.01])  # approaching: the impact path runs in full
@@ -217,6 +218,7 @@ def _warm_up(stepper: Any, state: Any) -> None:
         lambda: stepper.step(s, 0.0, 1e-4),
         lambda: stepper._step_general(s, 0.0, 1e-4, 1e-13, 1e-4 - 1e-13),
         lambda: stepper.step_block(s, [(0.0, 1e-4)], np.zeros((1, 2, 3)), np.zeros(5)),
+        lambda: lemke(np.eye(2), np.array([-1.0, 1.0])),  # the pyramid fallback's pivoting
     ):
         try:
             call()
