@@ -234,7 +234,7 @@ def run_ensemble_variant(
     from pbr_xval.uncertainty import ensemble_spec
     from pbr_xval.validation.campaign import Baseline, load_campaign
     from pbr_xval.validation.ensemble import ensemble_p, run_campaign_ensemble
-    from pbr_xval.validation.runner import prepare_motions
+    from pbr_xval.validation.execution import prepare_motions
 
     camp = load_campaign(campaign, specimen).select(tests)
     base = Baseline(
