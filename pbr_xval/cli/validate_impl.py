@@ -10,6 +10,116 @@ from typing import Any
 __all__ = ["validate_command"]
 
 
+def _check_options(
+    scenario: Path | None, engines: list[str], ensemble: bool, baseline_source: str, tail: float,
+    folds: int, workers: int, chunk_size: int, limit: int | None, tests: str | None,
+    highpass: float, lowpass: float, resample: float,
+) -> str | None:  # fmt: skip
+    """What is wrong with the command's options, checked before anything is read; None if nothing."""
+    if scenario is None:
+        return "--scenario is required (the specimen's scenario TOML)"
+    if not engines and not ensemble:
+        return "give at least one --engine (e.g. --engine mujoco)"
+    if baseline_source not in ("auto", "sheet", "record"):
+        return f"--baseline-source {baseline_source!r}: expected auto, sheet or record"
+    if not (tail >= 0):
+        return f"--tail {tail!r}: expected a time >= 0 s"
+    for opt, value, least in (
+        ("--folds", folds, 2),
+        ("--workers", workers, 1),
+        ("--chunk-size", chunk_size, 1),
+    ):
+        if value < least:
+            return f"{opt} {value}: expected an integer ≥ {least}"
+    if limit is not None and limit < 1:
+        return f"--limit {limit}: expected at least 1 test"
+    if tests is not None and not [t for t in tests.split(",") if t.strip()]:
+        return (
+            f"--tests {tests!r}: names no test; expected comma-separated test identifiers (omit it for all)"
+        )
+    for opt, hz in (("--highpass", highpass), ("--lowpass", lowpass), ("--resample", resample)):
+        if not (math.isfinite(hz) and hz >= 0):
+            return f"{opt} {hz!r}: expected a frequency ≥ 0 Hz (0: none)"
+    if highpass and lowpass and highpass >= lowpass:
+        return (
+            f"--highpass {highpass:g} Hz: not below --lowpass {lowpass:g} Hz; expected a band (0: no filter)"
+        )
+    return None
+
+
+def _print_scores(res: Any, console: Any, ensemble: bool) -> None:
+    """Each model's scores on the console, then the F1, ensemble and Brier lines on stdout."""
+    from rich.markup import escape
+
+    from pbr_xval.validation.campaign_report import brier_lines, f1_lines
+
+    sc = res.scores
+    for r in sc.itertuples():
+        console.print(
+            f"{r.model:>18s}  F1 {r.f1:.3f}  acc {r.accuracy:.3f}  prec {r.precision:.3f}  rec {r.recall:.3f}"
+            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  {escape('[' + r.evaluated_on + ']')}",
+            soft_wrap=True,
+        )
+    for line in f1_lines(res):
+        print(line, flush=True)
+    if ensemble:
+        from pbr_xval.validation.ensemble import ensemble_lines
+
+        for line in ensemble_lines(res):  # F1 ensemble (Brier ensemble is among the Brier lines)
+            print(line, flush=True)
+    for line in brier_lines(res):  # every model: engines (0/1), rules, logistic baselines
+        print(line, flush=True)
+
+
+def _meta(
+    campaign: Path, camp: Any, specimen: int, scenario: Path, scn: Any, engines: list[str],
+    settings: dict[str, Any], base: Any, tail: float, wall: float, summary: Any, ens_meta: dict[str, Any],
+) -> dict[str, Any]:  # fmt: skip
+    """What the report records about the run (inputs, settings, baseline correction, timing)."""
+    return {
+        "campaign": str(campaign),
+        "campaign_form": camp.form,
+        "specimen": specimen,
+        "tests": len(camp),
+        "records": len({t.motion for t in camp.tests}),
+        "scenario": str(scenario),
+        "scenario_hash": scn.content_hash(),
+        "engines": ", ".join(engines),
+        "engine_settings": settings,
+        "baseline_correction": base.describe(),
+        "tail_s": tail,
+        "toppling": scn.toppling.model_dump(mode="json"),
+        "wall_s": round(wall, 1),
+        "chunks_run_skipped_failed": f"{summary.done}/{summary.skipped}/{summary.failed}",
+        **ens_meta,
+    }
+
+
+def _print_inputs(
+    console: Any, campaign: Path, camp: Any, specimen: int, baseline_source: str, has_sheet: bool
+) -> None:
+    """The campaign read, and (baseline source auto) where the threshold rules take PGA and PGV/PGA."""
+    from rich.markup import escape
+
+    console.print(
+        f"campaign {escape(str(campaign))}: {len(camp)} tests of specimen {specimen} "
+        f"({sum(t.toppled for t in camp.tests)} toppled), {len({t.motion for t in camp.tests})} records",
+        soft_wrap=True,
+    )
+    if baseline_source == "auto":
+        console.print(
+            "threshold rules: "
+            + (
+                "the lab sheet's PGA and PGV/PGA (pga_g, pgv_over_pga_s of every test)"
+                if has_sheet
+                else "the corrected records' PGA and PGV/PGA (the campaign does not give pga_g and "
+                "pgv_over_pga_s for every test; --baseline-source sheet would refuse it)"
+            ),
+            soft_wrap=True,
+            highlight=False,
+        )
+
+
 def validate_command(
     campaign: Path,
     *,
@@ -47,7 +157,7 @@ def validate_command(
     from pbr_xval.errors import OutputPathError
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
-    from pbr_xval.validation.campaign_report import brier_lines, evaluate, f1_lines, write_report
+    from pbr_xval.validation.campaign_report import evaluate, write_report
     from pbr_xval.validation.execution import run_campaign
 
     console = console or Console()
@@ -57,34 +167,13 @@ def validate_command(
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True, highlight=False)
         return 2
 
-    if scenario is None:
-        return fail("--scenario is required (the specimen's scenario TOML)")
-    if not engines and not ensemble:
-        return fail("give at least one --engine (e.g. --engine mujoco)")
-    if baseline_source not in ("auto", "sheet", "record"):
-        return fail(f"--baseline-source {baseline_source!r}: expected auto, sheet or record")
-    if not (tail >= 0):
-        return fail(f"--tail {tail!r}: expected a time >= 0 s")
-    for opt, value, least in (
-        ("--folds", folds, 2),
-        ("--workers", workers, 1),
-        ("--chunk-size", chunk_size, 1),
-    ):
-        if value < least:
-            return fail(f"{opt} {value}: expected an integer ≥ {least}")
-    if limit is not None and limit < 1:
-        return fail(f"--limit {limit}: expected at least 1 test")
-    if tests is not None and not [t for t in tests.split(",") if t.strip()]:
-        return fail(
-            f"--tests {tests!r}: names no test; expected comma-separated test identifiers (omit it for all)"
-        )
-    for opt, hz in (("--highpass", highpass), ("--lowpass", lowpass), ("--resample", resample)):
-        if not (math.isfinite(hz) and hz >= 0):
-            return fail(f"{opt} {hz!r}: expected a frequency ≥ 0 Hz (0: none)")
-    if highpass and lowpass and highpass >= lowpass:
-        return fail(
-            f"--highpass {highpass:g} Hz: not below --lowpass {lowpass:g} Hz; expected a band (0: no filter)"
-        )
+    bad = _check_options(
+        scenario, engines, ensemble, baseline_source, tail, folds, workers, chunk_size, limit, tests,
+        highpass, lowpass, resample,
+    )  # fmt: skip
+    if bad:
+        return fail(bad)
+    assert scenario is not None
     try:
         base = Baseline(
             detrend=detrend,
@@ -141,23 +230,7 @@ def validate_command(
     bad = _check_scene(camp, base, scn, scenario, engines, settings, tail)
     if bad:
         return fail(bad)
-    console.print(
-        f"campaign {escape(str(campaign))}: {len(camp)} tests of specimen {specimen} "
-        f"({sum(t.toppled for t in camp.tests)} toppled), {len({t.motion for t in camp.tests})} records",
-        soft_wrap=True,
-    )
-    if baseline_source == "auto":
-        console.print(
-            "threshold rules: "
-            + (
-                "the lab sheet's PGA and PGV/PGA (pga_g, pgv_over_pga_s of every test)"
-                if has_sheet
-                else "the corrected records' PGA and PGV/PGA (the campaign does not give pga_g and "
-                "pgv_over_pga_s for every test; --baseline-source sheet would refuse it)"
-            ),
-            soft_wrap=True,
-            highlight=False,
-        )
+    _print_inputs(console, campaign, camp, specimen, baseline_source, has_sheet)
     t0 = time.perf_counter()
     try:
         rows, motions, summary = run_campaign(
@@ -186,40 +259,11 @@ def validate_command(
             settings={e: settings for e in engines}, tail=tail, workers=workers, progress=progress, console=err,
             half_width=half_width, batch=batch,
         )  # fmt: skip
-    meta = {
-        "campaign": str(campaign),
-        "campaign_form": camp.form,
-        "specimen": specimen,
-        "tests": len(camp),
-        "records": len({t.motion for t in camp.tests}),
-        "scenario": str(scenario),
-        "scenario_hash": scn.content_hash(),
-        "engines": ", ".join(engines),
-        "engine_settings": settings,
-        "baseline_correction": base.describe(),
-        "tail_s": tail,
-        "toppling": scn.toppling.model_dump(mode="json"),
-        "wall_s": round(wall, 1),
-        "chunks_run_skipped_failed": f"{summary.done}/{summary.skipped}/{summary.failed}",
-        **ens_meta,
-    }
+    meta = _meta(
+        campaign, camp, specimen, scenario, scn, engines, settings, base, tail, wall, summary, ens_meta
+    )
     paths = write_report(res, out, meta)
-    sc = res.scores
-    for r in sc.itertuples():
-        console.print(
-            f"{r.model:>18s}  F1 {r.f1:.3f}  acc {r.accuracy:.3f}  prec {r.precision:.3f}  rec {r.recall:.3f}"
-            f"  TP {r.tp} FP {r.fp} FN {r.fn} TN {r.tn}  {escape('[' + r.evaluated_on + ']')}",
-            soft_wrap=True,
-        )
-    for line in f1_lines(res):
-        print(line, flush=True)
-    if ens_spec is not None:
-        from pbr_xval.validation.ensemble import ensemble_lines
-
-        for line in ensemble_lines(res):  # F1 ensemble (Brier ensemble is among the Brier lines)
-            print(line, flush=True)
-    for line in brier_lines(res):  # every model: engines (0/1), rules, logistic baselines
-        print(line, flush=True)
+    _print_scores(res, console, ens_spec is not None)
     console.print(f"wrote {escape(str(paths['html']))}, outcomes.csv, scores.csv ({wall:.1f} s)")
     bad = sum(res.failures.values()) + summary.failed + int(ens_meta.get("ensemble_failed_runs", 0))
     if bad:

@@ -99,9 +99,150 @@ def _pos(v: Any, where: str, key: str, allow_zero: bool = False) -> float:
     return x
 
 
+def _read_branches(
+    hz: dict[str, Any],
+    where: str,
+    p: Path,
+    base: Path,
+    site_t: tuple[float, float] | None,
+    tail: str,
+    notes: list[str],
+) -> tuple[list[HazardCurve], str]:
+    """The hazard branches of ``[hazard]`` (``branch`` or ``quantile`` tables) and the mode read."""
+    branches: list[HazardCurve] = []
+    mode = "branches"
+    if "branch" in hz and "quantile" in hz:
+        raise HazardInputError(f"{where}: both 'branch' and 'quantile' given; expected one of them")
+    if "branch" in hz:
+        for i, b in enumerate(hz["branch"]):
+            w = f"{p} [[hazard.branch]] #{i + 1}"
+            f = base / str(_req(b, "file", w, "a hazard-curve file"))
+            cs = read_hazard_curves(f, site_t, tail)
+            for c in cs:
+                c.weight = _pos(b.get("weight", 1.0), w, "weight", allow_zero=True)
+                c.name = str(b.get("name", c.name if len(cs) > 1 else f.stem))
+            branches.extend(cs)
+    elif "quantile" in hz:
+        mode = "quantiles"
+        curves, qv = [], []
+        for i, b in enumerate(hz["quantile"]):
+            w = f"{p} [[hazard.quantile]] #{i + 1}"
+            f = base / str(_req(b, "file", w, "a hazard-curve file"))
+            q = _pos(_req(b, "q", w, "the fractile, e.g. 0.05"), w, "q")
+            curves.append(read_hazard_curves(f, site_t, tail)[0])
+            qv.append(q)
+        order = sorted(range(len(qv)), key=lambda i: qv[i])
+        try:
+            branches = branches_from_quantiles([curves[i] for i in order], [qv[i] for i in order])
+        except HazardInputError as exc:
+            raise HazardInputError(f"{where}: {exc}") from None
+        notes.append("hazard given as fractile curves: each is a branch weighted by the interval between midpoints "
+                     "to its neighbouring fractiles (an approximation of the distribution)")  # fmt: skip
+    else:
+        raise HazardInputError(f"{where}: no [[hazard.branch]] or [[hazard.quantile]]; expected one of them")
+    return branches, mode
+
+
+def _check_weights(
+    hz: dict[str, Any], branches: list[HazardCurve], where: str, flags: dict[str, bool], notes: list[str]
+) -> None:
+    """Branch weights: none given (equal weights), all given and summing to 1 (or rescaled)."""
+    given = [("weight" in b) for b in hz["branch"]]
+    wsum = sum(c.weight for c in branches)
+    if not any(given):
+        for c in branches:
+            c.weight = 1.0 / len(branches)
+        if len(branches) > 1:
+            notes.append(f"no branch weights given: {len(branches)} branches weighted equally")
+    elif not all(given):
+        raise HazardInputError(
+            f"{where}: weights given for {sum(given)} of {len(given)} branches; expected a weight on every branch"
+        )
+    elif abs(wsum - 1.0) > _WEIGHT_TOL:
+        if not flags["normalize_weights"]:
+            raise HazardInputError(
+                f"{where}: branch weights sum to {wsum:.6g}; expected 1 (within {_WEIGHT_TOL:g}), "
+                "or set normalize_weights = true to rescale them"
+            )
+        notes.append(f"branch weights summed to {wsum:.6g}; rescaled to 1 (normalize_weights = true)")
+
+
+def _pgv_pga(hz: dict[str, Any], where: str, notes: list[str]) -> Any:
+    """The ``[hazard.pgv_pga]`` model of PGV/PGA given PGA (vector fragilities), or None."""
+    pgv_pga = None
+    if "pgv_pga" in hz:
+        from pbr_xval.hazard.ims import G
+        from pbr_xval.hazard.vector import PgvPgaModel
+
+        m = hz["pgv_pga"]
+        w = f"{where} [hazard.pgv_pga]"
+        bad = sorted(set(m) - {"median_s", "sigma_ln", "slope", "ref_pga_g", "source"})
+        if bad:
+            raise HazardInputError(
+                f"{w}: unknown key(s) {bad}; expected median_s, sigma_ln, slope, ref_pga_g, source"
+            )
+        try:
+            pgv_pga = PgvPgaModel(_pos(_req(m, "median_s", w, "the median PGV/PGA in s"), w, "median_s"),
+                                  _pos(_req(m, "sigma_ln", w, "the ln standard deviation"), w, "sigma_ln", True),
+                                  float(m.get("slope", 0.0)), _pos(m.get("ref_pga_g", 1.0), w, "ref_pga_g") * G)  # fmt: skip
+        except HazardInputError as exc:
+            raise HazardInputError(f"{w}: {exc}") from None
+        notes.append("PGV/PGA given PGA (stated model for the vector fragilities): " + pgv_pga.describe()
+                     + (f" — {m['source']}" if "source" in m else ""))  # fmt: skip
+    return pgv_pga
+
+
+def _read_rocks(
+    raw: dict[str, Any], p: Path, base: Path, pgv_pga: Any, n_draws: int, seed: int
+) -> tuple[list[RockInput], dict[str, Any]]:
+    """The ``[[rock]]`` tables: each rock's fragility (and its draws) and exposure age."""
+    from pbr_xval.hazard.nrml import read_fragility_csv, read_fragility_model
+
+    rocks_raw = _req(raw, "rock", str(p), "[[rock]] tables")
+    rocks: list[RockInput] = []
+    cache: dict[Path, dict[str, Any]] = {}
+    draws: dict[str, Any] = {}
+    for i, r in enumerate(rocks_raw):
+        w = f"{p} [[rock]] #{i + 1}"
+        rid = str(_req(r, "id", w, "a rock id"))
+        w = f"{p} [[rock]] {rid!r}"
+        bad = sorted(set(r) - _ROCK_KEYS)
+        if bad:
+            raise HazardInputError(f"{w}: unknown key(s) {bad}; expected some of {sorted(_ROCK_KEYS)}")
+        unc = r.get("fragility_uncertainty")
+        if unc not in (None, "profile", "ensemble", "none"):
+            raise HazardInputError(
+                f"{w}: key 'fragility_uncertainty': {unc!r}; expected profile, ensemble or none"
+            )
+        if "vector_coef" in r:
+            frag = _vector(r, w, pgv_pga)
+            if unc not in (None, "none"):
+                raise HazardInputError(
+                    f"{w}: key 'fragility_uncertainty': {unc!r}; a vector fragility is taken as fitted"
+                )
+        else:
+            f = base / str(_req(r, "fragility", w, "an NRML fragility model or fragility CSV"))
+            if f not in cache:
+                cache[f] = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
+            fid = str(r.get("function", rid))
+            if fid not in cache[f]:
+                raise HazardInputError(f"{w}: key 'function': {fid!r} not in {f} (has {sorted(cache[f])})")
+            frag = cache[f][fid]
+            d = _draws(r, w, base, frag, unc, n_draws, seed + i)
+            if d is not None:
+                draws[rid] = d
+        dist = r.get("age_dist", "normal")
+        try:
+            age = Age(_pos(_req(r, "age", w, "the exposure age in years"), w, "age"),
+                      _pos(r.get("age_sd", 0.0), w, "age_sd", allow_zero=True), dist)  # fmt: skip
+        except HazardInputError as exc:
+            raise HazardInputError(f"{w}: {exc}") from None
+        rocks.append(RockInput(rid, frag, age))
+    return rocks, draws
+
+
 def load_config(path: str | Path) -> ConstrainConfig:
     """Read and validate a constrain TOML; reads every hazard and fragility file it names."""
-    from pbr_xval.hazard.nrml import read_fragility_csv, read_fragility_model
 
     p = Path(path)
     if not p.is_file():
@@ -146,38 +287,8 @@ def load_config(path: str | Path) -> ConstrainConfig:
         raise HazardInputError(f"{where}: key 'tail': {tail!r}; expected 'powerlaw' or 'cut'")
     site = hz.get("site")
     site_t = (float(site[0]), float(site[1])) if site else None
-    branches: list[HazardCurve] = []
     notes: list[str] = []
-    mode = "branches"
-    if "branch" in hz and "quantile" in hz:
-        raise HazardInputError(f"{where}: both 'branch' and 'quantile' given; expected one of them")
-    if "branch" in hz:
-        for i, b in enumerate(hz["branch"]):
-            w = f"{p} [[hazard.branch]] #{i + 1}"
-            f = base / str(_req(b, "file", w, "a hazard-curve file"))
-            cs = read_hazard_curves(f, site_t, tail)
-            for c in cs:
-                c.weight = _pos(b.get("weight", 1.0), w, "weight", allow_zero=True)
-                c.name = str(b.get("name", c.name if len(cs) > 1 else f.stem))
-            branches.extend(cs)
-    elif "quantile" in hz:
-        mode = "quantiles"
-        curves, qv = [], []
-        for i, b in enumerate(hz["quantile"]):
-            w = f"{p} [[hazard.quantile]] #{i + 1}"
-            f = base / str(_req(b, "file", w, "a hazard-curve file"))
-            q = _pos(_req(b, "q", w, "the fractile, e.g. 0.05"), w, "q")
-            curves.append(read_hazard_curves(f, site_t, tail)[0])
-            qv.append(q)
-        order = sorted(range(len(qv)), key=lambda i: qv[i])
-        try:
-            branches = branches_from_quantiles([curves[i] for i in order], [qv[i] for i in order])
-        except HazardInputError as exc:
-            raise HazardInputError(f"{where}: {exc}") from None
-        notes.append("hazard given as fractile curves: each is a branch weighted by the interval between midpoints "
-                     "to its neighbouring fractiles (an approximation of the distribution)")  # fmt: skip
-    else:
-        raise HazardInputError(f"{where}: no [[hazard.branch]] or [[hazard.quantile]]; expected one of them")
+    branches, mode = _read_branches(hz, where, p, base, site_t, tail, notes)
     given_mean = None
     if "mean" in hz:
         if mode != "quantiles":
@@ -191,89 +302,14 @@ def load_config(path: str | Path) -> ConstrainConfig:
     if not branches:
         raise HazardInputError(f"{where}: no hazard curves read; expected at least one")
     if mode == "branches":
-        given = [("weight" in b) for b in hz["branch"]]
-        wsum = sum(c.weight for c in branches)
-        if not any(given):
-            for c in branches:
-                c.weight = 1.0 / len(branches)
-            if len(branches) > 1:
-                notes.append(f"no branch weights given: {len(branches)} branches weighted equally")
-        elif not all(given):
-            raise HazardInputError(
-                f"{where}: weights given for {sum(given)} of {len(given)} branches; expected a weight on every branch"
-            )
-        elif abs(wsum - 1.0) > _WEIGHT_TOL:
-            if not flags["normalize_weights"]:
-                raise HazardInputError(
-                    f"{where}: branch weights sum to {wsum:.6g}; expected 1 (within {_WEIGHT_TOL:g}), "
-                    "or set normalize_weights = true to rescale them"
-                )
-            notes.append(f"branch weights summed to {wsum:.6g}; rescaled to 1 (normalize_weights = true)")
+        _check_weights(hz, branches, where, flags, notes)
     if len(branches) == 1 and "quantiles" in raw:
         raise HazardInputError(
             f"{p}: key 'quantiles': {list(qs)} with 1 hazard branch; fractiles need at least 2 branches "
             "(remove 'quantiles' to run a single curve)"
         )
-    pgv_pga = None
-    if "pgv_pga" in hz:
-        from pbr_xval.hazard.ims import G
-        from pbr_xval.hazard.vector import PgvPgaModel
-
-        m = hz["pgv_pga"]
-        w = f"{where} [hazard.pgv_pga]"
-        bad = sorted(set(m) - {"median_s", "sigma_ln", "slope", "ref_pga_g", "source"})
-        if bad:
-            raise HazardInputError(
-                f"{w}: unknown key(s) {bad}; expected median_s, sigma_ln, slope, ref_pga_g, source"
-            )
-        try:
-            pgv_pga = PgvPgaModel(_pos(_req(m, "median_s", w, "the median PGV/PGA in s"), w, "median_s"),
-                                  _pos(_req(m, "sigma_ln", w, "the ln standard deviation"), w, "sigma_ln", True),
-                                  float(m.get("slope", 0.0)), _pos(m.get("ref_pga_g", 1.0), w, "ref_pga_g") * G)  # fmt: skip
-        except HazardInputError as exc:
-            raise HazardInputError(f"{w}: {exc}") from None
-        notes.append("PGV/PGA given PGA (stated model for the vector fragilities): " + pgv_pga.describe()
-                     + (f" — {m['source']}" if "source" in m else ""))  # fmt: skip
-    rocks_raw = _req(raw, "rock", str(p), "[[rock]] tables")
-    rocks: list[RockInput] = []
-    cache: dict[Path, dict[str, Any]] = {}
-    draws: dict[str, Any] = {}
-    for i, r in enumerate(rocks_raw):
-        w = f"{p} [[rock]] #{i + 1}"
-        rid = str(_req(r, "id", w, "a rock id"))
-        w = f"{p} [[rock]] {rid!r}"
-        bad = sorted(set(r) - _ROCK_KEYS)
-        if bad:
-            raise HazardInputError(f"{w}: unknown key(s) {bad}; expected some of {sorted(_ROCK_KEYS)}")
-        unc = r.get("fragility_uncertainty")
-        if unc not in (None, "profile", "ensemble", "none"):
-            raise HazardInputError(
-                f"{w}: key 'fragility_uncertainty': {unc!r}; expected profile, ensemble or none"
-            )
-        if "vector_coef" in r:
-            frag = _vector(r, w, pgv_pga)
-            if unc not in (None, "none"):
-                raise HazardInputError(
-                    f"{w}: key 'fragility_uncertainty': {unc!r}; a vector fragility is taken as fitted"
-                )
-        else:
-            f = base / str(_req(r, "fragility", w, "an NRML fragility model or fragility CSV"))
-            if f not in cache:
-                cache[f] = read_fragility_model(f) if f.suffix.lower() == ".xml" else read_fragility_csv(f)
-            fid = str(r.get("function", rid))
-            if fid not in cache[f]:
-                raise HazardInputError(f"{w}: key 'function': {fid!r} not in {f} (has {sorted(cache[f])})")
-            frag = cache[f][fid]
-            d = _draws(r, w, base, frag, unc, n_draws, seed + i)
-            if d is not None:
-                draws[rid] = d
-        dist = r.get("age_dist", "normal")
-        try:
-            age = Age(_pos(_req(r, "age", w, "the exposure age in years"), w, "age"),
-                      _pos(r.get("age_sd", 0.0), w, "age_sd", allow_zero=True), dist)  # fmt: skip
-        except HazardInputError as exc:
-            raise HazardInputError(f"{w}: {exc}") from None
-        rocks.append(RockInput(rid, frag, age))
+    pgv_pga = _pgv_pga(hz, where, notes)
+    rocks, draws = _read_rocks(raw, p, base, pgv_pga, n_draws, seed)
     if "description" in raw:
         notes.insert(0, str(raw["description"]))
     im_int = None

@@ -13,6 +13,7 @@ import html
 import io
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -197,22 +198,13 @@ def _table(head: list[str], rows: list[list[str]]) -> str:
     return f"<table><thead><tr>{h}</tr></thead><tbody>{b}</tbody></table>"
 
 
-def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: str = "constrain",
-                 notes: list[str] | None = None, sources: list[str] | None = None,
-                 given_mean: Any = None, unc: Any = None, draws: dict[str, Any] | None = None) -> Path:  # fmt: skip
-    """Write the report files into ``out``; returns the path of ``index.html``.
-
-    ``given_mean`` (a :class:`~pbr_xval.hazard.curves.HazardCurve`): an input mean curve drawn for
-    reference when the hazard came as fractiles. ``unc``: the
-    :class:`~pbr_xval.hazard.uncertainty.UncertaintyResult` of the rocks' fragility draws
-    (``draws``, rock id → :class:`~pbr_xval.hazard.uncertainty.FragilityDraws`), shown beside the
-    fitted fragilities' figures. The page gives IMs in the field's units (g for PGA and SA, cm/s for
-    PGV); the files are SI with the unit in each column name."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+def _write_tables(
+    c: Constraint, rocks: list[RockInput], out: Path, unit: str, title: str,
+    notes: list[str] | None, sources: list[str] | None,
+) -> None:  # fmt: skip
+    """curves.csv, branches.csv, contribution.csv and summary.json (SI, units in the column names);
+    fills ``c.summary`` with the contribution ranges, truncation checks and warnings."""
     s = c.summary
-    unit = im_label(c.im).split("[")[1].rstrip("]")
-    # tables ------------------------------------------------------------------------------
     cols = {
         "im_" + unit.replace("/", "_").replace("²", "2"): c.grid,
         "mean_before": c.mean(),
@@ -239,11 +231,11 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
           "ln IM) before and after the constraint; its integral over ln IM is ν", ",".join(contrib)]  # fmt: skip
     cl += [",".join(f"{v[i]:.8g}" for v in contrib.values()) for i in range(c.grid.size)]
     write_text_atomic(out / "contribution.csv", "\n".join(cl) + "\n")
-    fu, k = oq_unit(c.im), oq_factor(c.im)
     s["contribution_90"] = {rk.id: list(central_range(c, c.contribution(rk.fragility))) for rk in rocks}
     s["truncation"] = [ck.to_dict() for ck in c.checks if ck.low_flag or ck.high_flag]
     s["truncation_worst_pf_low"] = max((ck.pf_low for ck in c.checks), default=math.nan)
     s["warnings"] = list(c.warnings)
+    fu, k = oq_unit(c.im), oq_factor(c.im)
     headline = {"field_unit": fu, "im_at_rate_before": s["mean_im_before"] / k, "im_at_rate_after": s["mean_im_after"] / k,
                 "im_change": s["mean_im_change"], "im_of_interest": s.get("im_of_interest", math.nan) / k,
                 "rate_at_im_before_per_yr": s.get("mean_rate_before_at_im"), "rate_at_im_after_per_yr": s.get("mean_rate_after_at_im"),
@@ -251,12 +243,12 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
     summ = {"title": title, "im": c.im, "im_unit": unit, "joint": c.joint_mode, "headline_field_units": headline, **s,
             "assumptions": ASSUMPTIONS, "notes": notes or [], "sources": sources or []}  # fmt: skip
     write_text_atomic(out / "summary.json", json.dumps(summ, indent=2, default=float) + "\n")
-    # page (IMs in the field's unit) -------------------------------------------------------
-    r = c.rate_of_interest
 
-    def fv(v: Any, d: int = 3) -> str:
-        return f"{v / k:.{d}g} {fu}" if isinstance(v, (int, float)) and math.isfinite(v) else "–"
 
+def _rock_rows(
+    c: Constraint, rocks: list[RockInput], s: dict[str, Any], unc: Any, fv: Callable[..., str]
+) -> list[list[str]]:
+    """The rows of the page's rock table (fragility, age, toppling rate, survival)."""
     rock_rows = []
     for i, rk in enumerate(rocks):
         f = rk.fragility
@@ -282,6 +274,33 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
                         f"hazard {sh['hazard']:.0%}, fragility {sh['fragility']:.0%}, age {sh['age']:.0%}, "
                         f"interaction {sh['interaction']:.0%}"]  # fmt: skip
         rock_rows.append(row)
+    return rock_rows
+
+
+def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: str = "constrain",
+                 notes: list[str] | None = None, sources: list[str] | None = None,
+                 given_mean: Any = None, unc: Any = None, draws: dict[str, Any] | None = None) -> Path:  # fmt: skip
+    """Write the report files into ``out``; returns the path of ``index.html``.
+
+    ``given_mean`` (a :class:`~pbr_xval.hazard.curves.HazardCurve`): an input mean curve drawn for
+    reference when the hazard came as fractiles. ``unc``: the
+    :class:`~pbr_xval.hazard.uncertainty.UncertaintyResult` of the rocks' fragility draws
+    (``draws``, rock id → :class:`~pbr_xval.hazard.uncertainty.FragilityDraws`), shown beside the
+    fitted fragilities' figures. The page gives IMs in the field's units (g for PGA and SA, cm/s for
+    PGV); the files are SI with the unit in each column name."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    s = c.summary
+    unit = im_label(c.im).split("[")[1].rstrip("]")
+    _write_tables(c, rocks, out, unit, title, notes, sources)
+    fu, k = oq_unit(c.im), oq_factor(c.im)
+    # page (IMs in the field's unit) -------------------------------------------------------
+    r = c.rate_of_interest
+
+    def fv(v: Any, d: int = 3) -> str:
+        return f"{v / k:.{d}g} {fu}" if isinstance(v, (int, float)) and math.isfinite(v) else "–"
+
+    rock_rows = _rock_rows(c, rocks, s, unc, fv)
     br_rows = [[n, f"{c.prior[b]:.4f}", f"{c.posterior[b]:.4f}"] + ([f"{unc.posterior[b]:.4f}"] if unc is not None else [])
                + [f"{c.joint[b]:.3g}"] + [f"{c.survival[b, i]:.3g}" for i in range(len(c.rock_ids))]
                for b, n in enumerate(c.branch_names)]  # fmt: skip
