@@ -344,6 +344,92 @@ def _unique(name: str, used: set[str]) -> str:
 
 
 # ------------------------------------------------------------------ writer
+def _write_section(
+    i: int, r: StudyResult, tmp: Path, prov: dict[str, Any], used: set[str], parquet_files: list[str]
+) -> dict[str, Any]:
+    """Write one study's tables (CSV, Parquet) into ``tmp``; its section of the page, figures inlined.
+
+    ``used`` (file stems already taken) and ``parquet_files`` are updated in place.
+    """
+    prefix = f"s{i:02d}_{_slug(r.kind)}"
+    status = _status(r)
+    rprov = r.provenance if isinstance(r.provenance, Mapping) else {}
+    sec: dict[str, Any] = {
+        "anchor": prefix,
+        "title": r.title,
+        "kind": r.kind,
+        "status": status,
+        "scenario": rprov.get("scenario_label") or rprov.get("scenario_name") or "",
+        "wall": f"{r.wall_time:.1f} s" if r.wall_time >= 1 else f"{r.wall_time * 1000:.0f} ms",
+        "summary_html": [],
+        "summary_tables": [],
+        "notes": [md_inline(n) for n in r.notes],
+        "error": rprov.get("traceback") or rprov.get("error") or "",
+        "provenance_json": _dumps({k: v for k, v in rprov.items() if k != "traceback"}),
+        "figures": [],
+        "tables": [],
+    }
+    items, mtables = _summary_blocks(r.summary)
+    sec["summary_html"], sec["summary_tables"] = items, mtables
+    table_files: dict[str, dict[str, str]] = {}
+    for tname, df in (r.tables or {}).items():
+        stem = _unique(f"{prefix}_{_slug(tname)}", used)
+        csv = f"{stem}.csv"
+        write_bytes_atomic(tmp / csv, _csv_bytes(df))
+        pq_name = f"data/{stem}.parquet"
+        meta = {
+            "report": prov,
+            "study": {"kind": r.kind, "title": r.title, "table": tname, "headline": r.headline},
+            "study_provenance": {k: v for k, v in rprov.items() if k != "traceback"},
+        }
+        try:
+            write_parquet_atomic(tmp / pq_name, _arrow_table(df, meta))
+            parquet_files.append(pq_name)
+        except Exception as exc:  # a table pyarrow cannot store must not sink the report
+            sec["notes"].append(md_inline(f"table {tname!r} could not be written as Parquet: {exc}"))
+            pq_name = ""
+        table_files[tname] = {"csv": csv, "parquet": pq_name}
+        sec["tables"].append(
+            {
+                "name": tname,
+                "rows": len(df),
+                "csv": csv,
+                "parquet": pq_name,
+            }
+        )
+    for fig in r.figures or []:
+        same = _slug(fig.name) == _slug(fig.table) and fig.table in table_files
+        stem = f"{prefix}_{_slug(fig.name)}" if same else _unique(f"{prefix}_{_slug(fig.name)}", used)
+        try:
+            uri, w, h = _png_data_uri(fig.figure)
+        except Exception as exc:
+            sec["notes"].append(md_inline(f"figure {fig.name!r} could not be rendered: {exc}"))
+            continue
+        df = (r.tables or {}).get(fig.table)
+        if same:
+            csv = table_files[fig.table]["csv"]
+        elif df is not None:
+            csv = f"{stem}.csv"
+            write_bytes_atomic(tmp / csv, _csv_bytes(df))
+        else:
+            # no data table: link the caption to nothing rather than to a missing file
+            csv = ""
+            sec["notes"].append(md_inline(f"figure {fig.name!r}: its data table {fig.table!r} is missing"))
+        sec["figures"].append(
+            {
+                "anchor": stem,
+                "data_uri": uri,
+                "width": w,
+                "height": h,
+                "wide": w > WIDE_PX,
+                "alt": fig.caption or fig.name,
+                "caption": md_inline(fig.caption),
+                "csv": csv,
+            }
+        )
+    return sec
+
+
 def write_report(
     results: list[StudyResult],
     out_dir: Path,
@@ -392,85 +478,7 @@ def write_report(
         anchors = [f"s{i:02d}_{_slug(r.kind)}" for i, r in enumerate(results, start=1)]
         verdict = build_verdict(results, anchors)
         for i, r in enumerate(results, start=1):
-            prefix = f"s{i:02d}_{_slug(r.kind)}"
-            status = _status(r)
-            rprov = r.provenance if isinstance(r.provenance, Mapping) else {}
-            sec: dict[str, Any] = {
-                "anchor": prefix,
-                "title": r.title,
-                "kind": r.kind,
-                "status": status,
-                "scenario": rprov.get("scenario_label") or rprov.get("scenario_name") or "",
-                "wall": f"{r.wall_time:.1f} s" if r.wall_time >= 1 else f"{r.wall_time * 1000:.0f} ms",
-                "summary_html": [],
-                "summary_tables": [],
-                "notes": [md_inline(n) for n in r.notes],
-                "error": rprov.get("traceback") or rprov.get("error") or "",
-                "provenance_json": _dumps({k: v for k, v in rprov.items() if k != "traceback"}),
-                "figures": [],
-                "tables": [],
-            }
-            items, mtables = _summary_blocks(r.summary)
-            sec["summary_html"], sec["summary_tables"] = items, mtables
-            table_files: dict[str, dict[str, str]] = {}
-            for tname, df in (r.tables or {}).items():
-                stem = _unique(f"{prefix}_{_slug(tname)}", used)
-                csv = f"{stem}.csv"
-                write_bytes_atomic(tmp / csv, _csv_bytes(df))
-                pq_name = f"data/{stem}.parquet"
-                meta = {
-                    "report": prov,
-                    "study": {"kind": r.kind, "title": r.title, "table": tname, "headline": r.headline},
-                    "study_provenance": {k: v for k, v in rprov.items() if k != "traceback"},
-                }
-                try:
-                    write_parquet_atomic(tmp / pq_name, _arrow_table(df, meta))
-                    parquet_files.append(pq_name)
-                except Exception as exc:  # a table pyarrow cannot store must not sink the report
-                    sec["notes"].append(md_inline(f"table {tname!r} could not be written as Parquet: {exc}"))
-                    pq_name = ""
-                table_files[tname] = {"csv": csv, "parquet": pq_name}
-                sec["tables"].append(
-                    {
-                        "name": tname,
-                        "rows": len(df),
-                        "csv": csv,
-                        "parquet": pq_name,
-                    }
-                )
-            for fig in r.figures or []:
-                same = _slug(fig.name) == _slug(fig.table) and fig.table in table_files
-                stem = f"{prefix}_{_slug(fig.name)}" if same else _unique(f"{prefix}_{_slug(fig.name)}", used)
-                try:
-                    uri, w, h = _png_data_uri(fig.figure)
-                except Exception as exc:
-                    sec["notes"].append(md_inline(f"figure {fig.name!r} could not be rendered: {exc}"))
-                    continue
-                df = (r.tables or {}).get(fig.table)
-                if same:
-                    csv = table_files[fig.table]["csv"]
-                elif df is not None:
-                    csv = f"{stem}.csv"
-                    write_bytes_atomic(tmp / csv, _csv_bytes(df))
-                else:
-                    # no data table: link the caption to nothing rather than to a missing file
-                    csv = ""
-                    sec["notes"].append(
-                        md_inline(f"figure {fig.name!r}: its data table {fig.table!r} is missing")
-                    )
-                sec["figures"].append(
-                    {
-                        "anchor": stem,
-                        "data_uri": uri,
-                        "width": w,
-                        "height": h,
-                        "wide": w > WIDE_PX,
-                        "alt": fig.caption or fig.name,
-                        "caption": md_inline(fig.caption),
-                        "csv": csv,
-                    }
-                )
-            sections.append(sec)
+            sections.append(_write_section(i, r, tmp, prov, used, parquet_files))
 
         # generated inputs
         asset_names: list[str] = []

@@ -117,6 +117,101 @@ def _unit(param: str) -> str:
         return ""
 
 
+def _directions(
+    scenario: Scenario, azimuths: Any, config: AzimuthConfig, v0: float, bound_applies: bool
+) -> list[dict[str, Any]]:
+    """Per direction: the scenario, the uplift bound, the value at which PGA = bound, the search range."""
+    from pbr_xval.scene import compile_scene
+
+    per_dir: list[dict[str, Any]] = []
+    for phi in azimuths:
+        scn = scenario.with_value("excitation.azimuth_deg", float(phi))
+        scene = compile_scene(scn)
+        table = scene.rock.stability
+        bound = (
+            float(table.shaking_bound(math.radians(phi), scene.gravity)) if bound_applies else float("nan")
+        )
+        p1 = float(pga_of(scn))
+        p2 = float(pga_of(scn.with_value(config.param, 2.0 * v0)))
+        if not (p1 > 0 and abs(p2 / p1 - 2.0) < 1e-6):
+            raise ValueError(
+                f"study 'azimuth': key 'param' = {config.param!r} does not scale the PGA linearly "
+                f"(PGA {p1:.6g} m/s² at {v0:.6g}, {p2:.6g} m/s² at twice that); expected an amplitude, "
+                "pgv, target_pga, target_pgv or scale"
+            )
+        v_bound = v0 * bound / p1
+        lo, hi = (
+            (config.lo, config.hi)
+            if config.lo is not None and config.hi is not None  # given together (validated)
+            else (config.range_over_bound[0] * v_bound, config.range_over_bound[1] * v_bound)
+        )
+        per_dir.append(
+            {
+                "phi": float(phi),
+                "scenario": scn,
+                "bound": bound,
+                "pga_per_unit": p1 / v0,
+                "v_bound": v_bound,
+                "lo": float(lo),
+                "hi": float(hi),
+                "alpha_u_plus": float(
+                    np.degrees(np.arctan2(_ray(table, math.radians(phi)), table.com_height))
+                ),
+                "alpha_u_minus": float(
+                    np.degrees(np.arctan2(_ray(table, math.radians(phi) + math.pi), table.com_height))
+                ),
+            }
+        )
+    return per_dir
+
+
+def _dense_bounds(scene0: Any, bound_applies: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every degree of azimuth: the uplift bound (m/s², NaN where it does not apply) and the
+    quasi-static toppling level of a rock rolling on its hull, g·tan α (not a bound)."""
+    dense = np.radians(np.arange(0.0, 360.0, 1.0))
+    st0 = scene0.rock.stability
+    dense_bound = (
+        np.asarray(st0.shaking_bound(dense, scene0.gravity), dtype=float)
+        if bound_applies
+        else np.full(dense.shape, np.nan)
+    )
+    # quasi-static toppling of a rock rolling on its hull (critical tilt α, smaller of ±φ): not a bound
+    alpha2 = np.minimum(st0.alpha_at(dense), st0.alpha_at(dense + np.pi))
+    dense_alpha = np.where(alpha2 < np.radians(80.0), scene0.gravity * np.tan(alpha2), np.nan)
+    return dense, dense_bound, dense_alpha
+
+
+def _summary_and_headline(
+    table_df: Any, scenario: Scenario, config: AzimuthConfig, azimuths: Any, unit: str
+) -> tuple[list[str], dict[str, Any]]:
+    """The study's summary table and its headline (weakest direction and PGA range per engine)."""
+    summary = [
+        f"**Toppling level per shaking azimuth** of `{config.param}` on `{scenario.name}` "
+        f"({len(azimuths)} directions; {PHI_CONVENTION}); PGA at the level vs the quasi-static "
+        "uplift bound min(g·tan α_u(φ), g·tan α_u(φ+180°))",
+        "",
+        f"| engine | φ [deg] | status | minimum [{unit or '-'}] | ± | PGA [m/s²] | bound [m/s²] | PGA/bound | sims |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for _, r in table_df.iterrows():
+        summary.append(
+            f"| {r['engine']} | {r['phi_deg']:g} | {r['status']} | {_fmt(r[_c('minimum', unit)])} | "
+            f"{_fmt(r[_c('tolerance', unit)], '.2g')} | {_fmt(r['pga_at_minimum_m_s2'], '.4g')} | "
+            f"{r['bound_m_s2']:.4g} | {_fmt(r['ratio_to_bound'], '.3f')} | {r['n_simulations']} |"
+        )
+    headline: dict[str, Any] = {}
+    for name, sub in table_df.groupby("engine", sort=False):
+        ok = sub[np.isfinite(sub["pga_at_minimum_m_s2"].astype(float))]
+        if len(ok):
+            i = ok["pga_at_minimum_m_s2"].astype(float).idxmin()
+            headline[str(name)] = {
+                "weakest_phi_deg": float(ok.loc[i, "phi_deg"]),
+                "min_pga_m_s2": float(ok.loc[i, "pga_at_minimum_m_s2"]),
+                "max_pga_m_s2": float(ok["pga_at_minimum_m_s2"].astype(float).max()),
+            }
+    return summary, headline
+
+
 def run(
     config: AzimuthConfig,
     scenario: Scenario,
@@ -159,56 +254,8 @@ def run(
                 "apply and cannot set the search range; give 'lo' and 'hi'"
             )
 
-    # per direction: the scenario, the bound and the value at which PGA = bound
-    per_dir: list[dict[str, Any]] = []
-    for phi in azimuths:
-        scn = scenario.with_value("excitation.azimuth_deg", float(phi))
-        scene = compile_scene(scn)
-        table = scene.rock.stability
-        bound = (
-            float(table.shaking_bound(math.radians(phi), scene.gravity)) if bound_applies else float("nan")
-        )
-        p1 = float(pga_of(scn))
-        p2 = float(pga_of(scn.with_value(config.param, 2.0 * v0)))
-        if not (p1 > 0 and abs(p2 / p1 - 2.0) < 1e-6):
-            raise ValueError(
-                f"study 'azimuth': key 'param' = {config.param!r} does not scale the PGA linearly "
-                f"(PGA {p1:.6g} m/s² at {v0:.6g}, {p2:.6g} m/s² at twice that); expected an amplitude, "
-                "pgv, target_pga, target_pgv or scale"
-            )
-        v_bound = v0 * bound / p1
-        lo, hi = (
-            (config.lo, config.hi)
-            if config.lo is not None and config.hi is not None  # given together (validated)
-            else (config.range_over_bound[0] * v_bound, config.range_over_bound[1] * v_bound)
-        )
-        per_dir.append(
-            {
-                "phi": float(phi),
-                "scenario": scn,
-                "bound": bound,
-                "pga_per_unit": p1 / v0,
-                "v_bound": v_bound,
-                "lo": float(lo),
-                "hi": float(hi),
-                "alpha_u_plus": float(
-                    np.degrees(np.arctan2(_ray(table, math.radians(phi)), table.com_height))
-                ),
-                "alpha_u_minus": float(
-                    np.degrees(np.arctan2(_ray(table, math.radians(phi) + math.pi), table.com_height))
-                ),
-            }
-        )
-    dense = np.radians(np.arange(0.0, 360.0, 1.0))
-    st0 = scene0.rock.stability
-    dense_bound = (
-        np.asarray(st0.shaking_bound(dense, scene0.gravity), dtype=float)
-        if bound_applies
-        else np.full(dense.shape, np.nan)
-    )
-    # quasi-static toppling of a rock rolling on its hull (critical tilt α, smaller of ±φ): not a bound
-    alpha2 = np.minimum(st0.alpha_at(dense), st0.alpha_at(dense + np.pi))
-    dense_alpha = np.where(alpha2 < np.radians(80.0), scene0.gravity * np.tan(alpha2), np.nan)
+    per_dir = _directions(scenario, azimuths, config, v0, bound_applies)
+    dense, dense_bound, dense_alpha = _dense_bounds(scene0, bound_applies)
 
     rows: list[dict[str, Any]] = []
     skipped: dict[str, str] = {}
@@ -294,30 +341,7 @@ def run(
             f"below the quasi-static uplift bound {r['bound_m_s2']:.4g} m/s² — not physical for a rigid rock"
         )
     fig = _figure(table_df, bound_df, scenario.name, config.param)
-    summary = [
-        f"**Toppling level per shaking azimuth** of `{config.param}` on `{scenario.name}` "
-        f"({len(azimuths)} directions; {PHI_CONVENTION}); PGA at the level vs the quasi-static "
-        "uplift bound min(g·tan α_u(φ), g·tan α_u(φ+180°))",
-        "",
-        f"| engine | φ [deg] | status | minimum [{unit or '-'}] | ± | PGA [m/s²] | bound [m/s²] | PGA/bound | sims |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for _, r in table_df.iterrows():
-        summary.append(
-            f"| {r['engine']} | {r['phi_deg']:g} | {r['status']} | {_fmt(r[_c('minimum', unit)])} | "
-            f"{_fmt(r[_c('tolerance', unit)], '.2g')} | {_fmt(r['pga_at_minimum_m_s2'], '.4g')} | "
-            f"{r['bound_m_s2']:.4g} | {_fmt(r['ratio_to_bound'], '.3f')} | {r['n_simulations']} |"
-        )
-    headline: dict[str, Any] = {}
-    for name, sub in table_df.groupby("engine", sort=False):
-        ok = sub[np.isfinite(sub["pga_at_minimum_m_s2"].astype(float))]
-        if len(ok):
-            i = ok["pga_at_minimum_m_s2"].astype(float).idxmin()
-            headline[str(name)] = {
-                "weakest_phi_deg": float(ok.loc[i, "phi_deg"]),
-                "min_pga_m_s2": float(ok.loc[i, "pga_at_minimum_m_s2"]),
-                "max_pga_m_s2": float(ok["pga_at_minimum_m_s2"].astype(float).max()),
-            }
+    summary, headline = _summary_and_headline(table_df, scenario, config, azimuths, unit)
     return StudyResult(
         kind="azimuth",
         title=f"Toppling level per shaking azimuth: {config.param} — {scenario.name}",

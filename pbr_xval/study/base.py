@@ -16,6 +16,7 @@ Studies never write files themselves; :mod:`pbr_xval.report` does, atomically.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
     import pandas as pd
     from matplotlib.figure import Figure as MplFigure
 
-__all__ = ["Figure", "StudyResult"]
+__all__ = ["ANALYTICAL_ENGINES", "Figure", "StudyResult", "clamped_progress", "reference_candidates"]
 
 
 @dataclass
@@ -57,3 +58,23 @@ class StudyResult:
     provenance: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     wall_time: float = 0.0
+
+
+#: the analytical engines, in the order a study falls back to them for its reference
+ANALYTICAL_ENGINES = ("housner", "curved_base")
+
+
+def reference_candidates(ref_name: str | None) -> list[str]:
+    """The engines a study tries, in order, for its analytical reference: the one asked for,
+    then the other analytical engines (none when no reference is asked for)."""
+    return [ref_name] + [a for a in ANALYTICAL_ENGINES if a != ref_name] if ref_name else []
+
+
+def clamped_progress(progress: Callable[[str, float], None] | None) -> Callable[[str, float], None]:
+    """A study's progress callback that takes any fraction (clamped to [0, 1]); a no-op without one."""
+
+    def say(msg: str, frac: float) -> None:
+        if progress is not None:
+            progress(msg, min(1.0, max(0.0, frac)))
+
+    return say

@@ -49,7 +49,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from pbr_xval.scenario import Scenario
-from pbr_xval.study.base import Figure, StudyResult
+from pbr_xval.study.base import Figure, StudyResult, clamped_progress
 
 __all__ = ["ALL_CASES", "CLASSES", "ExtremesConfig", "build_cases", "run"]
 
@@ -184,7 +184,12 @@ def _box_mesh_offset(offset: tuple[float, float, float]) -> Any:
 
 
 def build_cases(names: Sequence[str], tmp: Path) -> list[Case]:
-    """The requested cases (files they need are written under ``tmp``)."""
+    """The requested cases (files they need are written under ``tmp``).
+
+    Long on purpose: one short branch of data per case family (slenderness, size, friction,
+    restitution, mesh, motion, ...), so the function reads as the catalogue of cases; split into
+    one function per family it would scatter that catalogue without removing any logic.
+    """
     out: list[Case] = []
     r_block = math.hypot(0.2, 0.6)
     for name in names:
@@ -467,7 +472,6 @@ def run(
 
     from pbr_xval.engine import EngineNotAvailable
     from pbr_xval.study.workers import (
-        CallTask,
         SimTask,
         engine_label,
         resolve_engine,
@@ -483,9 +487,7 @@ def run(
     if scenario is not None:
         result.provenance["scenario_hash"] = scenario.content_hash()
 
-    def say(msg: str, frac: float) -> None:
-        if progress is not None:
-            progress(msg, min(1.0, max(0.0, frac)))
+    say = clamped_progress(progress)
 
     engs: dict[str, Any] = {}
     labels: dict[str, str] = {}
@@ -508,36 +510,7 @@ def run(
             result.provenance["scenario_hashes"][c.name] = c.scenario.content_hash()
             result.provenance.setdefault("case_descriptions", {})[c.name] = c.description
         # ---- references (threshold searches and reference peaks), in workers
-        ref_tasks: list[CallTask | SimTask] = []
-        for c in cases:
-            data, src = scenario_payload(c.scenario)
-            if c.search is not None:
-                ref_tasks.append(
-                    CallTask(
-                        "pbr_xval.study.tradeoff:threshold_point",
-                        {
-                            "scenario": data,
-                            "source": src,
-                            "engine": cfg.reference_engine,
-                            "settings": {},
-                            "param": "excitation.amplitude",
-                            **c.search,
-                        },
-                        tag=("search", c.name),
-                        timeout=cfg.timeout * 5,
-                    )
-                )
-            if c.kind == "peak":
-                ref_tasks.append(
-                    SimTask.single(
-                        data,
-                        cfg.reference_engine,
-                        {},
-                        source=src,
-                        tag=("peak", c.name),
-                        timeout=cfg.timeout * 2,
-                    )
-                )
+        ref_tasks = _reference_tasks(cases, cfg)
         ref_peak: dict[str, float] = {}
         ref_fail: dict[str, str] = {}
         by_name = {c.name: c for c in cases}
@@ -598,24 +571,7 @@ def run(
             cname, label = r.tag
             c = by_name[cname]
             cls, detail = classify(c, r, ref_peak.get(cname), cfg.penetration_fraction)
-            runs = r.runs
-            row = {
-                "case": cname,
-                "group": c.group,
-                "engine": label,
-                "class": cls,
-                "detail": detail,
-                "wall_s": r.wall_s,
-                "reference_m_s2": c.a_ref,
-            }
-            if runs:
-                row["max_penetration_m"] = max((x.get("max_penetration_m") or 0.0) for x in runs)
-                row["peak_tilt_rad"] = max((x.get("peak_tilt_rad") or 0.0) for x in runs)
-                row["sim_wall_s"] = sum((x.get("wall_time_s") or 0.0) for x in runs)
-                if c.settings and runs[0].get("settings"):
-                    result.provenance["engines"].setdefault(label, {}).setdefault("settings", {})[cname] = (
-                        runs[0]["settings"]
-                    )
+            row = _cell_row(r, c, cname, label, cls, detail, result)
             if r.signal:
                 row["detail"] = f"{detail} (signal {r.signal})"
             rows.append(row)
@@ -635,6 +591,80 @@ def run(
         )
         df = df.reset_index(drop=True)
     result.tables["extremes_matrix"] = df
+    _summarise(result, df, names, engs)
+    try:
+        if not df.empty:
+            result.figures.append(_figure(df, names, [labels[e] for e in engs]))
+    except Exception as exc:  # pragma: no cover
+        result.notes.append(f"figure failed: {exc}")
+    result.wall_time = time.perf_counter() - t_start
+    return result
+
+
+def _reference_tasks(cases: list[Any], cfg: ExtremesConfig) -> list[Any]:
+    """The reference engine's work: a threshold search per searched case, a run per peak case."""
+    from pbr_xval.study.workers import CallTask, SimTask, scenario_payload
+
+    ref_tasks: list[CallTask | SimTask] = []
+    for c in cases:
+        data, src = scenario_payload(c.scenario)
+        if c.search is not None:
+            ref_tasks.append(
+                CallTask(
+                    "pbr_xval.study.tradeoff:threshold_point",
+                    {
+                        "scenario": data,
+                        "source": src,
+                        "engine": cfg.reference_engine,
+                        "settings": {},
+                        "param": "excitation.amplitude",
+                        **c.search,
+                    },
+                    tag=("search", c.name),
+                    timeout=cfg.timeout * 5,
+                )
+            )
+        if c.kind == "peak":
+            ref_tasks.append(
+                SimTask.single(
+                    data,
+                    cfg.reference_engine,
+                    {},
+                    source=src,
+                    tag=("peak", c.name),
+                    timeout=cfg.timeout * 2,
+                )
+            )
+    return ref_tasks
+
+
+def _cell_row(
+    r: Any, c: Any, cname: str, label: str, cls: str, detail: str, result: StudyResult
+) -> dict[str, Any]:
+    """The matrix row of one cell (case × engine) from its runs; the case's settings go to the provenance."""
+    runs = r.runs
+    row = {
+        "case": cname,
+        "group": c.group,
+        "engine": label,
+        "class": cls,
+        "detail": detail,
+        "wall_s": r.wall_s,
+        "reference_m_s2": c.a_ref,
+    }
+    if runs:
+        row["max_penetration_m"] = max((x.get("max_penetration_m") or 0.0) for x in runs)
+        row["peak_tilt_rad"] = max((x.get("peak_tilt_rad") or 0.0) for x in runs)
+        row["sim_wall_s"] = sum((x.get("wall_time_s") or 0.0) for x in runs)
+        if c.settings and runs[0].get("settings"):
+            result.provenance["engines"].setdefault(label, {}).setdefault("settings", {})[cname] = runs[0][
+                "settings"
+            ]
+    return row
+
+
+def _summarise(result: StudyResult, df: Any, names: list[str], engs: dict[str, Any]) -> None:
+    """Headline (class counts, class per cell) and summary lines (every cell not ok) of the matrix."""
     counts = df["class"].value_counts().to_dict() if not df.empty else {}
     result.headline = {
         "classes": {k: int(v) for k, v in counts.items()},
@@ -653,13 +683,6 @@ def run(
                 else ""
             )
             result.summary.append(f"{r['engine']} · {r['case']}: **{r['class']}** — {r['detail']}{extra}")
-    try:
-        if not df.empty:
-            result.figures.append(_figure(df, names, [labels[e] for e in engs]))
-    except Exception as exc:  # pragma: no cover
-        result.notes.append(f"figure failed: {exc}")
-    result.wall_time = time.perf_counter() - t_start
-    return result
 
 
 def _measure_biased(

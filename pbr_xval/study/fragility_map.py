@@ -124,6 +124,89 @@ def _variant_label(v: dict[str, Any]) -> str:
     return ", ".join(f"{k}={val}" for k, val in v.items()) if v else "base"
 
 
+def _no_cell(status: str, message: str) -> dict[str, Any]:
+    """The result of a cell that was not simulated (engine skipped) or whose worker crashed."""
+    return {
+        "status": status,
+        "message": message,
+        "toppled": False,
+        "peak_com_disp_m": float("nan"),
+        "wall_s": float("nan"),
+        "settings": {},
+        "versions": {},
+    }
+
+
+def _fit_curves(
+    cells: Any,
+    config: FragilityConfig,
+    variants: list[dict[str, Any]],
+    run_engines: list[str],
+    tables: dict[str, Any],
+    figs: list[Figure],
+    notes: list[str],
+) -> list[str]:
+    """P(topple) over the x intensity measure, pooled over the y grid: a figure and table of
+    lognormal fits (added to ``figs``, ``tables``); the summary's fit lines."""
+    fit_lines: list[str] = []
+    try:  # probability of toppling over the x intensity measure, pooled over the y grid
+        from pbr_xval.report.figures import fragility_curves
+
+        ffig, fits = fragility_curves(
+            cells,
+            config.x,
+            [_variant_label(v) for v in variants],
+            run_engines,
+            group_note=f"pooled over {_units.label(config.y)} = "
+            + ", ".join(f"{v:g}" for v in sorted(set(config.y_values))),
+        )
+        tables["fragility_fits"] = fits
+        figs.append(
+            Figure(
+                name="fragility_fits",  # = its table: one CSV
+                figure=ffig,
+                table="fragility_fits",
+                caption=f"Probability of toppling against {_units.label(config.x)}: dots, the fraction of "
+                f"runs that toppled at each level (over the {_units.label(config.y, with_unit=False)} grid); "
+                "lines, lognormal fits by maximum likelihood (pbr_xval.catalog.fragility.fit_lognormal, "
+                "median θ and dispersion β in the legend); shaded, 90 % bootstrap band (40 refits, "
+                "runs resampled). Degenerate data (none or all toppled, complete separation, fewer than "
+                "3 levels) get no fit.",
+            )
+        )
+        for _, f in fits.iterrows():
+            if f["status"] == "ok":
+                fit_lines.append(
+                    f"{f['engine']} ({f['variant']}): θ = {f['theta']:.3g} {_units.unit(config.x)}, β = {f['beta']:.2f}"
+                )
+    except Exception as exc:  # a fit must never sink the maps
+        notes.append(f"fragility curves not drawn: {type(exc).__name__}: {exc}")
+    return fit_lines
+
+
+def _summary_lines(
+    scenario: Scenario, config: FragilityConfig, ref: str | None, agreement: Any, fit_lines: list[str]
+) -> list[str]:
+    """The study's summary: agreement with the reference per variant and engine, the fits."""
+    summary = [
+        f"**Fragility maps** of `{scenario.name}` over {_units.label(config.x)} × {_units.label(config.y)} "
+        f"({len(config.x_values)}×{len(config.y_values)} cells); reference: {ref or 'none'}",
+        "",
+        "| variant | engine | agreement | mean abs Δ peak disp (m) | disagreeing cells | wall s |",
+        "|---|---|---|---|---|---|",
+    ]
+    for _, r in agreement.iterrows():
+        summary.append(
+            f"| {r['variant']} | {r['engine']} | {_fmt(r['agreement'], '.0%')} | "
+            f"{_fmt(r['mean_abs_dpeak_m'], '.3f')} | {r['n_disagree']} | {_fmt(r['wall_s'], '.1f')} |"
+        )
+    if fit_lines:
+        summary.insert(
+            1, "Lognormal fragility over " + _units.label(config.x) + ": " + "; ".join(fit_lines) + "."
+        )
+    return summary
+
+
 def run(
     config: FragilityConfig,
     scenario: Scenario,
@@ -170,15 +253,7 @@ def run(
     if config.max_workers <= 1:
         for i, (_, eng, _, _, data) in enumerate(jobs):
             if eng in skip_engine:
-                results[i] = {
-                    "status": "skipped",
-                    "message": skip_engine[eng],
-                    "toppled": False,
-                    "peak_com_disp_m": float("nan"),
-                    "wall_s": float("nan"),
-                    "settings": {},
-                    "versions": {},
-                }
+                results[i] = _no_cell("skipped", skip_engine[eng])
             else:
                 cell = results[i] = run_cell(data, base_dir, eng, config.settings.get(eng), config.clamp)
                 if cell["status"] == "skipped" and cell["message"].startswith("not available"):
@@ -206,15 +281,7 @@ def run(
                 try:
                     results[i] = fut.result()
                 except Exception as exc:  # a crashed worker process
-                    results[i] = {
-                        "status": "failed",
-                        "message": f"{type(exc).__name__}: {exc}",
-                        "toppled": False,
-                        "peak_com_disp_m": float("nan"),
-                        "wall_s": float("nan"),
-                        "settings": {},
-                        "versions": {},
-                    }
+                    results[i] = _no_cell("failed", f"{type(exc).__name__}: {exc}")
                 report(i, n_done + 1)
 
     rows = []
@@ -256,56 +323,9 @@ def run(
     agreement = _agreement(cells, ref, [_variant_label(v) for v in variants], order)
     figs = [_figure(cells, agreement, config, [_variant_label(v) for v in variants], run_engines, ref)]
     tables = {"fragility_cells": cells, "fragility_agreement": agreement}
-    fit_lines: list[str] = []
-    try:  # probability of toppling over the x intensity measure, pooled over the y grid
-        from pbr_xval.report.figures import fragility_curves
+    fit_lines = _fit_curves(cells, config, variants, run_engines, tables, figs, notes)
 
-        ffig, fits = fragility_curves(
-            cells,
-            config.x,
-            [_variant_label(v) for v in variants],
-            run_engines,
-            group_note=f"pooled over {_units.label(config.y)} = "
-            + ", ".join(f"{v:g}" for v in sorted(set(config.y_values))),
-        )
-        tables["fragility_fits"] = fits
-        figs.append(
-            Figure(
-                name="fragility_fits",  # = its table: one CSV
-                figure=ffig,
-                table="fragility_fits",
-                caption=f"Probability of toppling against {_units.label(config.x)}: dots, the fraction of "
-                f"runs that toppled at each level (over the {_units.label(config.y, with_unit=False)} grid); "
-                "lines, lognormal fits by maximum likelihood (pbr_xval.catalog.fragility.fit_lognormal, "
-                "median θ and dispersion β in the legend); shaded, 90 % bootstrap band (40 refits, "
-                "runs resampled). Degenerate data (none or all toppled, complete separation, fewer than "
-                "3 levels) get no fit.",
-            )
-        )
-        for _, f in fits.iterrows():
-            if f["status"] == "ok":
-                fit_lines.append(
-                    f"{f['engine']} ({f['variant']}): θ = {f['theta']:.3g} {_units.unit(config.x)}, β = {f['beta']:.2f}"
-                )
-    except Exception as exc:  # a fit must never sink the maps
-        notes.append(f"fragility curves not drawn: {type(exc).__name__}: {exc}")
-
-    summary = [
-        f"**Fragility maps** of `{scenario.name}` over {_units.label(config.x)} × {_units.label(config.y)} "
-        f"({len(config.x_values)}×{len(config.y_values)} cells); reference: {ref or 'none'}",
-        "",
-        "| variant | engine | agreement | mean abs Δ peak disp (m) | disagreeing cells | wall s |",
-        "|---|---|---|---|---|---|",
-    ]
-    for _, r in agreement.iterrows():
-        summary.append(
-            f"| {r['variant']} | {r['engine']} | {_fmt(r['agreement'], '.0%')} | "
-            f"{_fmt(r['mean_abs_dpeak_m'], '.3f')} | {r['n_disagree']} | {_fmt(r['wall_s'], '.1f')} |"
-        )
-    if fit_lines:
-        summary.insert(
-            1, "Lognormal fragility over " + _units.label(config.x) + ": " + "; ".join(fit_lines) + "."
-        )
+    summary = _summary_lines(scenario, config, ref, agreement, fit_lines)
     headline: dict[str, Any] = {}
     for _, r in agreement.iterrows():
         headline.setdefault(r["engine"], {})[r["variant"]] = _json_num(r["agreement"])

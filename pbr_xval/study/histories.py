@@ -36,9 +36,11 @@ from pydantic import BaseModel, ConfigDict, Field
 from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, Trajectory, get_engine
 from pbr_xval.scenario import Scenario
-from pbr_xval.study.base import Figure, StudyResult
+from pbr_xval.study.base import ANALYTICAL_ENGINES, Figure, StudyResult, reference_candidates
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from pbr_xval.scene import Scene
 
 __all__ = [
@@ -50,7 +52,7 @@ __all__ = [
     "uplift_time",
 ]
 
-ANALYTICAL = ("housner", "curved_base")
+ANALYTICAL = ANALYTICAL_ENGINES  # (old name)
 N_IMPACTS = 3
 
 
@@ -221,6 +223,9 @@ def _simulate(scene: Scene, name: str, settings: dict[str, Any] | None) -> tuple
     return traj, "ok", ""
 
 
+_Run = tuple[Trajectory | None, str, str]  # (trajectory, status, message) of one engine
+
+
 def run(
     config: HistoriesConfig,
     scenario: Scenario,
@@ -231,7 +236,6 @@ def run(
     """Run every engine once and compare the histories; see the module docstring."""
     import pandas as pd
 
-    from pbr_xval.conformance import rebound_ratios
     from pbr_xval.scene import compile_scene
 
     t_start = time.perf_counter()
@@ -243,42 +247,25 @@ def run(
     a_ref = min(alpha)
     order = list(dict.fromkeys(engines))
     notes: list[str] = []
-    runs: dict[str, tuple[Trajectory | None, str, str]] = {}
 
     ref_name = config.reference_engine
-    candidates = [ref_name] + [a for a in ANALYTICAL if a != ref_name] if ref_name else []
     n_total = len(order) + (0 if (ref_name in order or not ref_name) else 1)
     tv = toppling_values(config, scenario) if config.toppling_run else None
     if tv is not None:
         n_total *= 2
     done = 0
 
-    def sim(name: str) -> tuple[Trajectory | None, str, str]:
+    def sim(sim_scene: Scene, name: str, label: str) -> _Run:
         nonlocal done
         if progress is not None:
-            progress(f"histories: {name}", done / max(n_total, 1))
-        out = _simulate(scene, name, config.settings.get(name))
+            progress(label, done / max(n_total, 1))
+        out = _simulate(sim_scene, name, config.settings.get(name))
         done += 1
         return out
 
-    ref_used: str | None = None
-    for cand in candidates:
-        r = runs.get(cand) or sim(cand)
-        if cand in order or r[1] == "ok":
-            runs[cand] = r
-        if r[1] == "ok":
-            ref_used = cand
-            if cand not in order:
-                notes.append(f"reference engine {cand!r} run in addition to the engines compared")
-            break
-        notes.append(f"reference engine {cand!r} not used: {r[2]}")
-        if not r[2].startswith("not applicable"):
-            break
-    if ref_used and ref_name and ref_used != ref_name:
-        notes.append(f"reference engine {ref_name!r} does not apply; using {ref_used!r}")
-    for name in order:
-        if name not in runs:
-            runs[name] = sim(name)
+    runs, ref_used = _reference_and_runs(
+        order, ref_name, lambda name: sim(scene, name, f"histories: {name}"), notes
+    )
     shown = list(dict.fromkeys([*([ref_used] if ref_used else []), *order]))
 
     # the same engines at a higher intensity: a history that topples
@@ -296,144 +283,30 @@ def run(
         for name in shown:
             if runs[name][1] != "ok":
                 continue
-            if progress is not None:
-                progress(f"histories: {name} at {top_key} = {top_value:.4g}", done / max(n_total, 1))
-            traj, status, msg = _simulate(tscene, name, config.settings.get(name))
-            done += 1
-            top_rows.append(
-                {
-                    "engine": name,
-                    "status": status,
-                    "message": msg,
-                    "param": top_key,
-                    "value": top_value,
-                    "toppled": bool(traj.toppled) if traj is not None and status == "ok" else None,
-                    "toppled_at_s": _nan(traj.toppled_at)
-                    if traj is not None and status == "ok"
-                    else float("nan"),
-                }
-            )
-            if traj is not None and status == "ok" and traj.t.size:
-                keep = _downsample(traj.t.size, config.max_points)
-                top_long.append(
-                    pd.DataFrame(
-                        {
-                            "t": traj.t[keep],
-                            "engine": name,
-                            "theta_over_alpha": theta_over_alpha(traj, alpha)[keep],
-                        }
-                    )
-                )
+            traj, status, msg = sim(tscene, name, f"histories: {name} at {top_key} = {top_value:.4g}")
+            _toppling_rows(traj, status, msg, name, top_key, top_value, alpha, config, top_rows, top_long)
     if progress is not None:
         progress("histories: metrics", 1.0)
 
-    # reference quantities
     ref = runs[ref_used][0] if ref_used else None
-    ref_q: dict[str, Any] = {}
-    quantities: dict[str, dict[str, Any]] = {}
-    for name in shown:
-        traj, status, msg = runs[name]
-        if status != "ok" or traj is None or traj.t.size == 0:
-            continue
-        th = traj.rocking_angle()
-        imp = impact_times(traj.t, th, config.impact_tol * a_ref)
-        try:
-            ratios = rebound_ratios(traj, scene)
-        except NotApplicable:
-            ratios = np.zeros(0)
-        except Exception:
-            ratios = np.zeros(0)
-        quantities[name] = {
-            "theta": th,
-            "peak": float(np.max(np.abs(th))),
-            "uplift": uplift_time(traj.t, th, config.uplift_tol),
-            "uplift_event": next((e.t for e in traj.events if e.kind == "uplift"), float("nan")),
-            "impacts": imp,
-            "ratios": ratios,
-            "drift": energy_drift(traj, scene, imp),
-        }
-    if ref is not None and ref_used in quantities:
-        ref_q = quantities[ref_used]
+    quantities = _quantities(runs, shown, scene, config, a_ref)
+    ref_q: dict[str, Any] = quantities[ref_used] if ref is not None and ref_used in quantities else {}
 
     rows: list[dict[str, Any]] = []
     long_rows: list[pd.DataFrame] = []
     for name in shown:
         traj, status, msg = runs[name]
-        row: dict[str, Any] = {"engine": name, "status": status, "message": msg}
         q = quantities.get(name)
         if q is None or traj is None:
-            rows.append(row)
+            rows.append({"engine": name, "status": status, "message": msg})
             continue
-        try:  # what the rock did: rocked, slid, jumped (the standard diagnostics)
-            from pbr_xval.diagnostics import ensure_standard_diagnostics
-
-            ensure_standard_diagnostics(traj, scene)
-            regime, slip = traj.regime, traj.diagnostics.get("slip_max_m")
-        except Exception:  # a diagnostic must not sink the study
-            regime, slip = "", None
-        row.update(
-            {
-                "profile": str(traj.settings.get("profile", "")),
-                "regime": regime,
-                "slip_max_m": float("nan") if slip is None else float(slip),
-                "toppled": traj.toppled,
-                "toppled_at_s": _nan(traj.toppled_at),
-                "peak_theta_rad": q["peak"],
-                "peak_theta_over_alpha": q["peak"] / a_ref,
-                "uplift_t_s": q["uplift"],
-                "uplift_event_t_s": q["uplift_event"],
-            }
-        )
-        for i in range(N_IMPACTS):
-            row[f"impact{i + 1}_t_s"] = float(q["impacts"][i]) if q["impacts"].size > i else float("nan")
-        for i in range(N_IMPACTS):
-            row[f"rebound{i + 1}"] = float(q["ratios"][i]) if q["ratios"].size > i else float("nan")
-        row["energy_drift_rel"] = q["drift"]
-        if ref_q and ref is not None:
-            row["peak_rel_error"] = q["peak"] / ref_q["peak"] - 1.0 if ref_q["peak"] > 0 else float("nan")
-            t_end = float(ref_q["impacts"][0]) if ref_q["impacts"].size else float(ref.t[-1])
-            sel = traj.t <= t_end
-            th_ref = _interp(ref.t, ref_q["theta"], traj.t[sel])
-            diff = q["theta"][sel] - th_ref
-            diff = diff[np.isfinite(diff)]
-            row["rms_theta_err_to_impact1_rad"] = (
-                float(np.sqrt(np.mean(diff**2))) if diff.size else float("nan")
-            )
-            row["uplift_dt_s"] = q["uplift"] - ref_q["uplift"]
-            for i in range(N_IMPACTS):
-                row[f"impact{i + 1}_dt_s"] = row[f"impact{i + 1}_t_s"] - (
-                    float(ref_q["impacts"][i]) if ref_q["impacts"].size > i else float("nan")
-                )
-            for i in range(N_IMPACTS):
-                row[f"rebound{i + 1}_diff"] = row[f"rebound{i + 1}"] - (
-                    float(ref_q["ratios"][i]) if ref_q["ratios"].size > i else float("nan")
-                )
-        row["wall_s"] = traj.wall_time
-        row["settings"] = json.dumps(traj.settings, sort_keys=True, default=str)
-        row["versions"] = json.dumps(traj.versions, sort_keys=True, default=str)
-        rows.append(row)
+        rows.append(_metric_row(name, runs[name], q, ref, ref_q, scene, a_ref))
         keep = _downsample(traj.t.size, config.max_points)
         toa = np.where(q["theta"] >= 0, q["theta"] / alpha[1], q["theta"] / alpha[0])
         long_rows.append(pd.DataFrame({"t": traj.t[keep], "engine": name, "theta_over_alpha": toa[keep]}))
 
     metrics = pd.DataFrame(rows)
-    theta_df = (
-        pd.concat(long_rows, ignore_index=True)
-        if long_rows
-        else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"])
-    )
-    theta_df["dtheta_over_alpha"] = np.nan
-    if ref_used is not None and ref_used in quantities and ref is not None:
-        ref_toa = np.where(ref_q["theta"] >= 0, ref_q["theta"] / alpha[1], ref_q["theta"] / alpha[0])
-        for name in shown:
-            if name == ref_used:
-                continue
-            sel = (theta_df["engine"] == name).to_numpy()
-            if sel.any():
-                tt = theta_df.loc[sel, "t"].to_numpy(float)
-                theta_df.loc[sel, "dtheta_over_alpha"] = theta_df.loc[sel, "theta_over_alpha"].to_numpy(
-                    float
-                ) - _interp(ref.t, ref_toa, tt)
+    theta_df = _theta_table(long_rows, shown, ref_used, ref, ref_q, alpha, quantities)
     top_df = pd.DataFrame(
         top_rows, columns=["engine", "status", "message", "param", "value", "toppled", "toppled_at_s"]
     )
@@ -465,18 +338,7 @@ def run(
     figs.append(_com_figure(com_df, scn.name))
     summary = _summary(metrics, ref_used, scn, config)
     if len(top_df):
-        okt = top_df[top_df["status"] == "ok"]
-        tops = okt[okt["toppled"].astype(bool)]
-        stands = okt[~okt["toppled"].astype(bool)]
-        line = f"At {_units.label(top_key, with_unit=False)} = {top_value:.4g} {_units.unit(top_key)} ({config.toppling_scale:g}×): "
-        if len(tops):
-            line += (
-                f"{', '.join(tops['engine'])} topple (t = {tops['toppled_at_s'].min():.3f}–"
-                f"{tops['toppled_at_s'].max():.3f} s)"
-            )
-        if len(stands):
-            line += ("; " if len(tops) else "") + f"{', '.join(stands['engine'])} stand"
-        summary.insert(1, line + ".")
+        summary.insert(1, _toppling_line(top_df, top_key, top_value, config))
     headline = {}
     for row in rows:
         if "peak_rel_error" in row:
@@ -511,6 +373,216 @@ def run(
         notes=notes,
         wall_time=time.perf_counter() - t_start,
     )
+
+
+def _reference_and_runs(
+    order: list[str], ref_name: str | None, sim: Callable[[str], _Run], notes: list[str]
+) -> tuple[dict[str, _Run], str | None]:
+    """Run the reference engine (or the first analytical one that applies), then every engine.
+
+    Returns the runs by engine name and the reference engine used (None if none applies);
+    appends to ``notes`` why a reference was not used.
+    """
+    runs: dict[str, _Run] = {}
+    candidates = reference_candidates(ref_name)
+    ref_used: str | None = None
+    for cand in candidates:
+        r = runs.get(cand) or sim(cand)
+        if cand in order or r[1] == "ok":
+            runs[cand] = r
+        if r[1] == "ok":
+            ref_used = cand
+            if cand not in order:
+                notes.append(f"reference engine {cand!r} run in addition to the engines compared")
+            break
+        notes.append(f"reference engine {cand!r} not used: {r[2]}")
+        if not r[2].startswith("not applicable"):
+            break
+    if ref_used and ref_name and ref_used != ref_name:
+        notes.append(f"reference engine {ref_name!r} does not apply; using {ref_used!r}")
+    for name in order:
+        if name not in runs:
+            runs[name] = sim(name)
+    return runs, ref_used
+
+
+def _toppling_rows(
+    traj: Trajectory | None,
+    status: str,
+    msg: str,
+    name: str,
+    top_key: str,
+    top_value: float,
+    alpha: tuple[float, float],
+    config: HistoriesConfig,
+    top_rows: list[dict[str, Any]],
+    top_long: list[Any],
+) -> None:
+    """Append one engine's run at the toppling intensity to the table and the θ/α histories."""
+    import pandas as pd
+
+    top_rows.append(
+        {
+            "engine": name,
+            "status": status,
+            "message": msg,
+            "param": top_key,
+            "value": top_value,
+            "toppled": bool(traj.toppled) if traj is not None and status == "ok" else None,
+            "toppled_at_s": _nan(traj.toppled_at) if traj is not None and status == "ok" else float("nan"),
+        }
+    )
+    if traj is not None and status == "ok" and traj.t.size:
+        keep = _downsample(traj.t.size, config.max_points)
+        top_long.append(
+            pd.DataFrame(
+                {
+                    "t": traj.t[keep],
+                    "engine": name,
+                    "theta_over_alpha": theta_over_alpha(traj, alpha)[keep],
+                }
+            )
+        )
+
+
+def _quantities(
+    runs: dict[str, _Run], shown: list[str], scene: Scene, config: HistoriesConfig, a_ref: float
+) -> dict[str, dict[str, Any]]:
+    """Per engine that ran: θ history, peak, uplift time, impacts, rebound ratios, energy drift."""
+    from pbr_xval.conformance import rebound_ratios
+
+    quantities: dict[str, dict[str, Any]] = {}
+    for name in shown:
+        traj, status, _msg = runs[name]
+        if status != "ok" or traj is None or traj.t.size == 0:
+            continue
+        th = traj.rocking_angle()
+        imp = impact_times(traj.t, th, config.impact_tol * a_ref)
+        try:
+            ratios = rebound_ratios(traj, scene)
+        except NotApplicable:
+            ratios = np.zeros(0)
+        except Exception:
+            ratios = np.zeros(0)
+        quantities[name] = {
+            "theta": th,
+            "peak": float(np.max(np.abs(th))),
+            "uplift": uplift_time(traj.t, th, config.uplift_tol),
+            "uplift_event": next((e.t for e in traj.events if e.kind == "uplift"), float("nan")),
+            "impacts": imp,
+            "ratios": ratios,
+            "drift": energy_drift(traj, scene, imp),
+        }
+    return quantities
+
+
+def _metric_row(
+    name: str,
+    run_: _Run,
+    q: dict[str, Any],
+    ref: Trajectory | None,
+    ref_q: dict[str, Any],
+    scene: Scene,
+    a_ref: float,
+) -> dict[str, Any]:
+    """One engine's row of ``histories_metrics``: its quantities and their differences to the reference."""
+    traj, status, msg = run_
+    assert traj is not None
+    row: dict[str, Any] = {"engine": name, "status": status, "message": msg}
+    try:  # what the rock did: rocked, slid, jumped (the standard diagnostics)
+        from pbr_xval.diagnostics import ensure_standard_diagnostics
+
+        ensure_standard_diagnostics(traj, scene)
+        regime, slip = traj.regime, traj.diagnostics.get("slip_max_m")
+    except Exception:  # a diagnostic must not sink the study
+        regime, slip = "", None
+    row.update(
+        {
+            "profile": str(traj.settings.get("profile", "")),
+            "regime": regime,
+            "slip_max_m": float("nan") if slip is None else float(slip),
+            "toppled": traj.toppled,
+            "toppled_at_s": _nan(traj.toppled_at),
+            "peak_theta_rad": q["peak"],
+            "peak_theta_over_alpha": q["peak"] / a_ref,
+            "uplift_t_s": q["uplift"],
+            "uplift_event_t_s": q["uplift_event"],
+        }
+    )
+    for i in range(N_IMPACTS):
+        row[f"impact{i + 1}_t_s"] = float(q["impacts"][i]) if q["impacts"].size > i else float("nan")
+    for i in range(N_IMPACTS):
+        row[f"rebound{i + 1}"] = float(q["ratios"][i]) if q["ratios"].size > i else float("nan")
+    row["energy_drift_rel"] = q["drift"]
+    if ref_q and ref is not None:
+        row["peak_rel_error"] = q["peak"] / ref_q["peak"] - 1.0 if ref_q["peak"] > 0 else float("nan")
+        t_end = float(ref_q["impacts"][0]) if ref_q["impacts"].size else float(ref.t[-1])
+        sel = traj.t <= t_end
+        th_ref = _interp(ref.t, ref_q["theta"], traj.t[sel])
+        diff = q["theta"][sel] - th_ref
+        diff = diff[np.isfinite(diff)]
+        row["rms_theta_err_to_impact1_rad"] = float(np.sqrt(np.mean(diff**2))) if diff.size else float("nan")
+        row["uplift_dt_s"] = q["uplift"] - ref_q["uplift"]
+        for i in range(N_IMPACTS):
+            row[f"impact{i + 1}_dt_s"] = row[f"impact{i + 1}_t_s"] - (
+                float(ref_q["impacts"][i]) if ref_q["impacts"].size > i else float("nan")
+            )
+        for i in range(N_IMPACTS):
+            row[f"rebound{i + 1}_diff"] = row[f"rebound{i + 1}"] - (
+                float(ref_q["ratios"][i]) if ref_q["ratios"].size > i else float("nan")
+            )
+    row["wall_s"] = traj.wall_time
+    row["settings"] = json.dumps(traj.settings, sort_keys=True, default=str)
+    row["versions"] = json.dumps(traj.versions, sort_keys=True, default=str)
+    return row
+
+
+def _theta_table(
+    long_rows: list[Any],
+    shown: list[str],
+    ref_used: str | None,
+    ref: Trajectory | None,
+    ref_q: dict[str, Any],
+    alpha: tuple[float, float],
+    quantities: dict[str, dict[str, Any]],
+) -> pd.DataFrame:
+    """``histories_theta``: θ/α of every engine and its difference to the reference's."""
+    import pandas as pd
+
+    theta_df = (
+        pd.concat(long_rows, ignore_index=True)
+        if long_rows
+        else pd.DataFrame(columns=["t", "engine", "theta_over_alpha"])
+    )
+    theta_df["dtheta_over_alpha"] = np.nan
+    if ref_used is not None and ref_used in quantities and ref is not None:
+        ref_toa = np.where(ref_q["theta"] >= 0, ref_q["theta"] / alpha[1], ref_q["theta"] / alpha[0])
+        for name in shown:
+            if name == ref_used:
+                continue
+            sel = (theta_df["engine"] == name).to_numpy()
+            if sel.any():
+                tt = theta_df.loc[sel, "t"].to_numpy(float)
+                theta_df.loc[sel, "dtheta_over_alpha"] = theta_df.loc[sel, "theta_over_alpha"].to_numpy(
+                    float
+                ) - _interp(ref.t, ref_toa, tt)
+    return theta_df
+
+
+def _toppling_line(top_df: pd.DataFrame, top_key: str, top_value: float, config: HistoriesConfig) -> str:
+    """The summary line of the runs at the toppling intensity: who topples (when), who stands."""
+    okt = top_df[top_df["status"] == "ok"]
+    tops = okt[okt["toppled"].astype(bool)]
+    stands = okt[~okt["toppled"].astype(bool)]
+    line = f"At {_units.label(top_key, with_unit=False)} = {top_value:.4g} {_units.unit(top_key)} ({config.toppling_scale:g}×): "
+    if len(tops):
+        line += (
+            f"{', '.join(tops['engine'])} topple (t = {tops['toppled_at_s'].min():.3f}–"
+            f"{tops['toppled_at_s'].max():.3f} s)"
+        )
+    if len(stands):
+        line += ("; " if len(tops) else "") + f"{', '.join(stands['engine'])} stand"
+    return line + "."
 
 
 def _nan(x: float | None) -> float:

@@ -321,6 +321,73 @@ def describe_run(traj: Trajectory, scene: Scene) -> tuple[float, int, int]:
 
 
 # ------------------------------------------------------------------------------ search
+def _search_range(
+    scenario: Scenario, param: str, lo: float | None, hi: float | None, physics_bound: bool
+) -> tuple[float, float, float | None]:
+    """(lo, hi, uplift lower bound or None) of a search; ValueError for a bad range or parameter."""
+    raw = scenario.get_value(param)
+    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        v0 = float(raw)
+    elif raw is None and lo is not None and hi is not None:
+        v0 = math.nan  # unset in the file: the range given is scanned
+    else:
+        found = "it is unset" if raw is None else f"found {raw!r}"
+        raise ValueError(
+            f"--param {param}: the scenario {scenario.name!r} has no number there ({found}); expected a "
+            "numeric key, set in the scenario or with both --lo and --hi"
+        )
+    bound = uplift_lower_bound(scenario, param) if physics_bound else None
+    hi = 2.0 * v0 if hi is None else float(hi)
+    if lo is None:
+        lo = bound if (bound is not None and bound < hi) else 0.5 * v0
+    lo = float(lo)
+    if not (0 < lo < hi and math.isfinite(hi)):
+        raise ValueError(f"threshold search needs 0 < lo < hi, got lo={lo}, hi={hi}")
+    return lo, hi, bound
+
+
+def _needs_split(k: int, runs_sorted: list[Run], min_width: float, near: float) -> bool:
+    """Whether the interval between runs k and k + 1 (sorted by value) may hide a transition."""
+    a, b = runs_sorted[k], runs_sorted[k + 1]
+    if b.value - a.value <= min_width * b.value or a.toppled != b.toppled:
+        return False  # narrow enough, or a transition (narrowed below)
+    if a.toppled:
+        # two toppling runs in different modes: a safe band may separate them
+        return a.side != b.side or a.impacts != b.impacts
+    # two standing runs: a toppling band needs the peak response to rise toward α and fall
+    # again inside the interval, i.e. a local maximum of max θ/α near it that comes close to 1
+    if max(a.peak_ratio, b.peak_ratio) < near:
+        return False
+    p = [r.peak_ratio if not r.toppled else math.inf for r in runs_sorted]
+    lo_k, hi_k = max(k - 1, 0), min(k + 2, len(p) - 1)
+    window = p[lo_k : hi_k + 1]
+    inner = max(p[k], p[k + 1])
+    return inner >= max(window) and ((window[0] < inner and window[-1] < inner) or len(window) < 4)
+
+
+def _outcome(
+    scanned: list[Run], transitions: list[Transition], cache: dict[float, Run]
+) -> tuple[str, np.ndarray, np.ndarray, float]:
+    """(status, values run, toppled flags, resolution) of a finished search; resolution is the
+    widest relative gap between neighbouring simulated runs with the same outcome."""
+    all_runs = sorted(cache.values(), key=lambda r: r.value)
+    first = scanned[0] if scanned else None
+    if first is not None and first.toppled:
+        status = TOPPLES_AT_LO
+    elif any(not tr.below_toppled for tr in transitions):
+        status = BRACKETED
+    else:
+        status = NEVER_TOPPLED
+    values = np.array([r.value for r in all_runs])
+    flags = np.array([r.toppled for r in all_runs], dtype=bool)
+    same = [
+        (values[k + 1] - values[k]) / values[k + 1]
+        for k in range(values.size - 1)
+        if flags[k] == flags[k + 1] and all_runs[k].simulated
+    ]
+    return status, values, flags, float(max(same)) if same else 0.0
+
+
 def find_threshold(
     scenario: Scenario,
     engine: str | Engine,
@@ -368,24 +435,7 @@ def find_threshold(
     if not (0 < rel_tol < 0.5):
         raise ValueError(f"rel_tol: expected 0 < rel_tol < 0.5, got {rel_tol}")
     eng = get_engine(engine)
-    raw = scenario.get_value(param)
-    if isinstance(raw, (int, float)) and not isinstance(raw, bool):
-        v0 = float(raw)
-    elif raw is None and lo is not None and hi is not None:
-        v0 = math.nan  # unset in the file: the range given is scanned
-    else:
-        found = "it is unset" if raw is None else f"found {raw!r}"
-        raise ValueError(
-            f"--param {param}: the scenario {scenario.name!r} has no number there ({found}); expected a "
-            "numeric key, set in the scenario or with both --lo and --hi"
-        )
-    bound = uplift_lower_bound(scenario, param) if physics_bound else None
-    hi = 2.0 * v0 if hi is None else float(hi)
-    if lo is None:
-        lo = bound if (bound is not None and bound < hi) else 0.5 * v0
-    lo = float(lo)
-    if not (0 < lo < hi and math.isfinite(hi)):
-        raise ValueError(f"threshold search needs 0 < lo < hi, got lo={lo}, hi={hi}")
+    lo, hi, bound = _search_range(scenario, param, lo, hi, physics_bound)
 
     runs: list[Run] = []
     count = 0
@@ -432,29 +482,12 @@ def find_threshold(
             break
 
     # -- adaptive refinement near toppling
-    def needs_split(k: int, runs_sorted: list[Run]) -> bool:
-        a, b = runs_sorted[k], runs_sorted[k + 1]
-        if b.value - a.value <= min_width * b.value or a.toppled != b.toppled:
-            return False  # narrow enough, or a transition (narrowed below)
-        if a.toppled:
-            # two toppling runs in different modes: a safe band may separate them
-            return a.side != b.side or a.impacts != b.impacts
-        # two standing runs: a toppling band needs the peak response to rise toward α and fall
-        # again inside the interval, i.e. a local maximum of max θ/α near it that comes close to 1
-        if max(a.peak_ratio, b.peak_ratio) < near:
-            return False
-        p = [r.peak_ratio if not r.toppled else math.inf for r in runs_sorted]
-        lo_k, hi_k = max(k - 1, 0), min(k + 2, len(p) - 1)
-        window = p[lo_k : hi_k + 1]
-        inner = max(p[k], p[k + 1])
-        return inner >= max(window) and ((window[0] < inner and window[-1] < inner) or len(window) < 4)
-
     if refine and all_transitions:
         changed = True
         while changed and count < max_simulations:
             changed = False
             scanned.sort(key=lambda r: r.value)
-            splits = [k for k in range(len(scanned) - 1) if needs_split(k, scanned)]
+            splits = [k for k in range(len(scanned) - 1) if _needs_split(k, scanned, min_width, near)]
             for k in splits:
                 if count >= max_simulations:
                     break
@@ -473,21 +506,7 @@ def find_threshold(
         if not all_transitions:
             break
 
-    all_runs = sorted(cache.values(), key=lambda r: r.value)
-    first = scanned[0] if scanned else None
-    if first is not None and first.toppled:
-        status = TOPPLES_AT_LO
-    elif any(not tr.below_toppled for tr in transitions):
-        status = BRACKETED
-    else:
-        status = NEVER_TOPPLED
-    values = np.array([r.value for r in all_runs])
-    flags = np.array([r.toppled for r in all_runs], dtype=bool)
-    same = [
-        (values[k + 1] - values[k]) / values[k + 1]
-        for k in range(values.size - 1)
-        if flags[k] == flags[k + 1] and all_runs[k].simulated
-    ]
+    status, values, flags, resolution = _outcome(scanned, transitions, cache)
     return ThresholdResult(
         param=param,
         engine=eng.name,
@@ -506,7 +525,7 @@ def find_threshold(
         hi=hi,
         lower_bound=bound,
         runs=runs,
-        resolution=float(max(same)) if same else 0.0,
+        resolution=resolution,
         unit=unit_of(param),
         criterion=criterion,
     )

@@ -27,13 +27,13 @@ from pydantic import BaseModel, ConfigDict, Field
 from pbr_xval import units as _units
 from pbr_xval.engine import EngineNotAvailable, NotApplicable, get_engine
 from pbr_xval.scenario import Scenario
-from pbr_xval.study.base import Figure, StudyResult
+from pbr_xval.study.base import ANALYTICAL_ENGINES, Figure, StudyResult, reference_candidates
 from pbr_xval.study.threshold_search import ThresholdResult, find_threshold
 
 __all__ = ["ThresholdsConfig", "param_unit", "run"]
 
 #: analytical engines, tried in this order when the configured reference does not apply
-ANALYTICAL = ("housner", "curved_base")
+ANALYTICAL = ANALYTICAL_ENGINES  # (old name)
 
 _UNITS = {
     "amplitude": "m_s2",
@@ -115,7 +115,7 @@ def run(
     notes: list[str] = []
     order = list(dict.fromkeys(engines))
     ref_name = config.reference_engine
-    candidates = [ref_name] + [a for a in ANALYTICAL if a != ref_name] if ref_name else []
+    candidates = reference_candidates(ref_name)
     n_total = max(len(order), 1) + (1 if ref_name and ref_name not in order else 0)
     expected = _expected_sims(config, lo, hi)
 
@@ -166,27 +166,7 @@ def run(
         return res
 
     # the analytical reference engine (possibly not in the list of engines compared)
-    ref_used: str | None = None
-    for cand in candidates:
-        if cand in order:
-            res = search(cand)
-            if res is not None:
-                results[cand] = res
-                ref_used = cand
-                break
-            if cand in skipped and skipped[cand].startswith("not applicable"):
-                continue
-            break
-        res = search(cand)
-        if res is not None:
-            results[cand] = res
-            ref_used = cand
-            notes.append(f"reference engine {cand!r} run in addition to the engines compared")
-            break
-        reason = skipped.pop(cand, None) or failures.pop(cand, "")
-        notes.append(f"reference engine {cand!r} not used: {reason}")
-        if not reason.startswith("not applicable"):
-            break
+    ref_used = _search_reference(candidates, order, search, results, skipped, failures, notes)
     if ref_name and ref_used is None:
         notes.append("no analytical reference engine applies to this scenario")
     elif ref_used and ref_used != ref_name:
@@ -211,68 +191,9 @@ def run(
     for name in shown:
         res = results.get(name)
         if res is None:
-            status = "skipped" if name in skipped else "failed"
-            rows.append(
-                {
-                    "engine": name,
-                    "status": status,
-                    "message": skipped.get(name) or failures.get(name, ""),
-                    "profile": (config.settings.get(name) or {}).get("profile", ""),
-                    "param": config.param,
-                    _col("minimum", unit): float("nan"),
-                    _col("tolerance", unit): float("nan"),
-                    "n_bands": 0,
-                    "n_simulations": 0,
-                    "wall_s": float("nan"),
-                    "rel_error_vs_reference": float("nan"),
-                    "rel_error_vs_reference_engine": float("nan"),
-                    "settings": json.dumps(config.settings.get(name) or {}, sort_keys=True, default=str),
-                    "versions": "{}",
-                }
-            )
+            rows.append(_missing_row(name, skipped, failures, config, unit))
             continue
-        bands = res.bands()
-        mn = res.minimum
-        rows.append(
-            {
-                "engine": name,
-                "status": "ok" if mn is not None else res.status,
-                "message": "" if mn is not None else res.message(),
-                "profile": str(res.settings.get("profile", "")),
-                "param": config.param,
-                _col("minimum", unit): _nan(mn),
-                _col("tolerance", unit): _nan(res.tolerance)
-                if not (res.grid_toppled.size and res.grid_toppled[0])
-                else 0.0,
-                "n_bands": len(bands),
-                "resolution": res.resolution,
-                "n_simulations": res.n_simulations,
-                "wall_s": res.wall_time,
-                "rel_error_vs_reference": (mn / config.reference - 1.0)
-                if (mn is not None and config.reference)
-                else float("nan"),
-                "rel_error_vs_reference_engine": (mn / ref_min - 1.0)
-                if (mn is not None and ref_min)
-                else float("nan"),
-                "settings": json.dumps(res.settings, sort_keys=True, default=str),
-                "versions": json.dumps(res.versions, sort_keys=True, default=str),
-            }
-        )
-        if res.grid_toppled.size and res.grid_toppled[0]:
-            notes.append(
-                f"{name}: already toppling at the bottom of the scan ({lo:.6g}); the minimum is ≤ that"
-            )
-        for i, b in enumerate(bands):
-            band_rows.append(
-                {
-                    "engine": name,
-                    "band": i,
-                    _col("band_start", unit): _nan(b.start),
-                    _col("band_end", unit): _nan(b.end),
-                    _col("start_tol", unit): _nan(b.start_tol),
-                    _col("end_tol", unit): _nan(b.end_tol),
-                }
-            )
+        _result_rows(name, res, config, unit, ref_min, lo, rows, band_rows, notes)
 
     table = pd.DataFrame(rows)
     bands_df = pd.DataFrame(
@@ -288,6 +209,145 @@ def run(
     )
     figs = [_figure(table, bands_df, config, unit, ref_used, ref_min, lo, hi)]
     tables = {"thresholds": table, "bands": bands_df}
+    _rock_contact(scenario, tables, figs, notes)
+
+    summary = _summary_lines(rows, results, config, scenario, unit, lo, hi, ref_used)
+
+    return StudyResult(
+        kind="thresholds",
+        title=f"Toppling thresholds: {config.param} — {scenario.name}",
+        tables=tables,
+        figures=figs,
+        summary=summary,
+        headline={n: (None if r.minimum is None else float(r.minimum)) for n, r in results.items()},
+        provenance={
+            "scenario": scenario.name,
+            "scenario_hash": scenario.content_hash(),
+            "config": config.model_dump(mode="json"),
+            "scan": {"lo": lo, "hi": hi},
+            "reference_engine": ref_used,
+            "settings": {n: r.settings for n, r in results.items()},
+            "versions": {n: r.versions for n, r in results.items()},
+        },
+        notes=notes,
+        wall_time=time.perf_counter() - t_start,
+    )
+
+
+def _search_reference(
+    candidates: list[str],
+    order: list[str],
+    search: Callable[[str], ThresholdResult | None],
+    results: dict[str, ThresholdResult],
+    skipped: dict[str, str],
+    failures: dict[str, str],
+    notes: list[str],
+) -> str | None:
+    """Search the analytical reference engine (possibly not among the engines compared): the first
+    candidate that gives a result; the next one only while the previous does not apply."""
+    ref_used: str | None = None
+    for cand in candidates:
+        if cand in order:
+            res = search(cand)
+            if res is not None:
+                results[cand] = res
+                ref_used = cand
+                return ref_used
+            if cand in skipped and skipped[cand].startswith("not applicable"):
+                continue
+            return ref_used
+        res = search(cand)
+        if res is not None:
+            results[cand] = res
+            ref_used = cand
+            notes.append(f"reference engine {cand!r} run in addition to the engines compared")
+            return ref_used
+        reason = skipped.pop(cand, None) or failures.pop(cand, "")
+        notes.append(f"reference engine {cand!r} not used: {reason}")
+        if not reason.startswith("not applicable"):
+            return ref_used
+    return ref_used
+
+
+def _missing_row(
+    name: str, skipped: dict[str, str], failures: dict[str, str], config: ThresholdsConfig, unit: str
+) -> dict[str, Any]:
+    """The ``thresholds`` row of an engine that gave no result (skipped or failed)."""
+    return {
+        "engine": name,
+        "status": "skipped" if name in skipped else "failed",
+        "message": skipped.get(name) or failures.get(name, ""),
+        "profile": (config.settings.get(name) or {}).get("profile", ""),
+        "param": config.param,
+        _col("minimum", unit): float("nan"),
+        _col("tolerance", unit): float("nan"),
+        "n_bands": 0,
+        "n_simulations": 0,
+        "wall_s": float("nan"),
+        "rel_error_vs_reference": float("nan"),
+        "rel_error_vs_reference_engine": float("nan"),
+        "settings": json.dumps(config.settings.get(name) or {}, sort_keys=True, default=str),
+        "versions": "{}",
+    }
+
+
+def _result_rows(
+    name: str,
+    res: ThresholdResult,
+    config: ThresholdsConfig,
+    unit: str,
+    ref_min: float | None,
+    lo: float,
+    rows: list[dict[str, Any]],
+    band_rows: list[dict[str, Any]],
+    notes: list[str],
+) -> None:
+    """Append one engine's row of ``thresholds`` and its rows of ``bands`` (and a note if it
+    toppled already at the bottom of the scan)."""
+    bands = res.bands()
+    mn = res.minimum
+    rows.append(
+        {
+            "engine": name,
+            "status": "ok" if mn is not None else res.status,
+            "message": "" if mn is not None else res.message(),
+            "profile": str(res.settings.get("profile", "")),
+            "param": config.param,
+            _col("minimum", unit): _nan(mn),
+            _col("tolerance", unit): _nan(res.tolerance)
+            if not (res.grid_toppled.size and res.grid_toppled[0])
+            else 0.0,
+            "n_bands": len(bands),
+            "resolution": res.resolution,
+            "n_simulations": res.n_simulations,
+            "wall_s": res.wall_time,
+            "rel_error_vs_reference": (mn / config.reference - 1.0)
+            if (mn is not None and config.reference)
+            else float("nan"),
+            "rel_error_vs_reference_engine": (mn / ref_min - 1.0)
+            if (mn is not None and ref_min)
+            else float("nan"),
+            "settings": json.dumps(res.settings, sort_keys=True, default=str),
+            "versions": json.dumps(res.versions, sort_keys=True, default=str),
+        }
+    )
+    if res.grid_toppled.size and res.grid_toppled[0]:
+        notes.append(f"{name}: already toppling at the bottom of the scan ({lo:.6g}); the minimum is ≤ that")
+    for i, b in enumerate(bands):
+        band_rows.append(
+            {
+                "engine": name,
+                "band": i,
+                _col("band_start", unit): _nan(b.start),
+                _col("band_end", unit): _nan(b.end),
+                _col("start_tol", unit): _nan(b.start_tol),
+                _col("end_tol", unit): _nan(b.end_tol),
+            }
+        )
+
+
+def _rock_contact(scenario: Scenario, tables: dict[str, Any], figs: list[Figure], notes: list[str]) -> None:
+    """The rock and its contact patch (what was tested): a figure and its table, or a note."""
     try:  # the rock and its contact patch: what was tested
         from pbr_xval.report.figures import rock_figure
         from pbr_xval.scene import compile_scene
@@ -306,6 +366,18 @@ def run(
     except Exception as exc:  # a picture must never sink the study
         notes.append(f"rock picture not drawn: {type(exc).__name__}: {exc}")
 
+
+def _summary_lines(
+    rows: list[dict[str, Any]],
+    results: dict[str, ThresholdResult],
+    config: ThresholdsConfig,
+    scenario: Scenario,
+    unit: str,
+    lo: float,
+    hi: float,
+    ref_used: str | None,
+) -> list[str]:
+    """The study's summary: the table of minima per engine, the reference, non-monotonic engines."""
     summary = [
         f"**Thresholds** of `{config.param}` on `{scenario.name}` (scan {lo:.6g}–{hi:.6g}, "
         f"rel. tol {config.rel_tol:g})",
@@ -330,26 +402,7 @@ def run(
     multi = [n for n, r in results.items() if len(r.bands()) > 1]
     if multi:
         summary.append(f"Non-monotonic (more than one toppling band): {', '.join(multi)}.")
-
-    return StudyResult(
-        kind="thresholds",
-        title=f"Toppling thresholds: {config.param} — {scenario.name}",
-        tables=tables,
-        figures=figs,
-        summary=summary,
-        headline={n: (None if r.minimum is None else float(r.minimum)) for n, r in results.items()},
-        provenance={
-            "scenario": scenario.name,
-            "scenario_hash": scenario.content_hash(),
-            "config": config.model_dump(mode="json"),
-            "scan": {"lo": lo, "hi": hi},
-            "reference_engine": ref_used,
-            "settings": {n: r.settings for n, r in results.items()},
-            "versions": {n: r.versions for n, r in results.items()},
-        },
-        notes=notes,
-        wall_time=time.perf_counter() - t_start,
-    )
+    return summary
 
 
 def _fmt(x: float, spec: str = ".6g") -> str:

@@ -26,7 +26,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from pbr_xval.scenario import Scenario
-from pbr_xval.study.base import Figure, StudyResult
+from pbr_xval.study.base import Figure, StudyResult, clamped_progress
 
 __all__ = ["TradeoffConfig", "pareto_front", "recommend", "run", "threshold_point"]
 
@@ -229,8 +229,7 @@ def run(
 ) -> StudyResult:
     import pandas as pd
 
-    from pbr_xval.engine import EngineNotAvailable
-    from pbr_xval.study.workers import CallTask, engine_label, resolve_engine, run_many, scenario_payload
+    from pbr_xval.study.workers import CallTask, run_many, scenario_payload
 
     t_start = time.perf_counter()
     cfg = config
@@ -243,102 +242,26 @@ def run(
         "engines": {},
     }
 
-    def say(msg: str, frac: float) -> None:
-        if progress is not None:
-            progress(msg, min(1.0, max(0.0, frac)))
+    say = clamped_progress(progress)
 
     # ---- reference
-    ref = cfg.reference
-    ref_source = "analytical (config)"
-    if ref is None:
-        v0 = float(scenario.get_value(cfg.param))
-        lo0, hi0 = (cfg.lo or 0.5 * v0), (cfg.hi or 2.0 * v0)
-        say(f"reference threshold ({cfg.reference_engine})", 0.0)
-        r = next(
-            iter(
-                run_many(
-                    [
-                        CallTask(
-                            "pbr_xval.study.tradeoff:threshold_point",
-                            {
-                                "scenario": data,
-                                "source": source,
-                                "engine": cfg.reference_engine,
-                                "settings": {},
-                                "param": cfg.param,
-                                "lo": lo0,
-                                "hi": hi0,
-                                "n_grid": max(cfg.n_grid, 8),
-                                "rel_tol": cfg.rel_tol / 10,
-                            },
-                            timeout=cfg.timeout_per_point,
-                        )
-                    ]
-                )
-            )
-        )
-        if not r.ok or r.value.get("minimum") is None:
-            result.notes.append(
-                f"reference engine {cfg.reference_engine!r} gave no threshold: {r.message or r.value}"
-            )
-            result.wall_time = time.perf_counter() - t_start
-            return result
-        ref = float(r.value["minimum"])
-        ref_source = f"{cfg.reference_engine} engine"
-        result.provenance["engines"][cfg.reference_engine] = {
-            "settings": r.value["settings"],
-            "versions": r.value["versions"],
-        }
+    got = _reference_threshold(cfg, scenario, data, source, result, say)
+    if got is None:
+        result.wall_time = time.perf_counter() - t_start
+        return result
+    ref, ref_source = got
     lo = cfg.lo if cfg.lo is not None else 0.8 * ref
     hi = cfg.hi if cfg.hi is not None else 1.25 * ref
     result.provenance.update(reference=ref, reference_source=ref_source, lo=lo, hi=hi, rel_tol=cfg.rel_tol)
 
     # ---- plan points per engine
-    plans: dict[str, list[tuple[float | None, str, dict[str, Any]]]] = {}
-    labels: dict[str, str] = {}
-    for name in engines:
-        try:
-            eng = resolve_engine(name)
-        except EngineNotAvailable as exc:
-            result.notes.append(f"{name}: not available ({exc}); skipped")
-            continue
-        labels[name] = engine_label(name)
-        plans[name] = _variants(cfg, labels[name], eng)
-        result.provenance["engines"][labels[name]] = {"versions": eng.versions()}
+    plans, labels = _plans(engines, cfg, result)
     n_total = sum(len(p) for p in plans.values()) or 1
 
     rows: list[dict[str, Any]] = []
     done = 0
     # series = (engine, profile, overrides) — timesteps run coarse to fine so costs extrapolate
-    series: list[tuple[str, str, dict[str, Any], list[float | None]]] = []
-    for name, plan in plans.items():
-        seen: dict[tuple[str, str], list[float | None]] = {}
-        exs: dict[tuple[str, str], dict[str, Any]] = {}
-        for dt, prof, ex in plan:
-            k = (prof, repr(sorted(ex.items())))
-            seen.setdefault(k, []).append(dt)
-            exs[k] = ex
-        for (prof, kk), dts in seen.items():
-            series.append((name, prof, exs[(prof, kk)], dts))
-
-    def make_row(name: str, dt: float | None, prof: str, ex: dict[str, Any]) -> dict[str, Any]:
-        variant = ({"timestep": dt} if dt is not None else {}) | {"profile": prof} | ex
-        return {
-            "engine": labels[name],
-            "setting": _fmt_setting(variant),
-            "timestep_s": dt,
-            "profile": prof,
-            "variant": _fmt_setting(ex) if ex else "",
-            "status": "",
-            "threshold": None,
-            "tolerance": None,
-            "rel_error": None,
-            "abs_rel_error": None,
-            "n_simulations": None,
-            "wall_s_per_sim": None,
-            "wall_s_search": None,
-            "note": "",
-        }
+    series = _series(plans)
 
     # run series in parallel (one series at a time per worker); within a series sequentially
     active: dict[int, dict[str, Any]] = {}
@@ -355,7 +278,7 @@ def run(
         while st["pos"] < len(dts):
             dt = dts[st["pos"]]
             st["pos"] += 1
-            row = make_row(name, dt, prof, ex)
+            row = _blank_row(labels[name], dt, prof, ex)
             if st["last_cost"] is not None and dt is not None and st["last_dt"]:
                 predicted = _predict_cost(st["history"], dt) * (st["last_n"] or 1)
                 if predicted > cfg.max_wall_per_point:
@@ -403,47 +326,7 @@ def run(
             i, row = r.tag
             st = state[i]
             done += 1
-            if r.ok:
-                v = r.value
-                n = v["n_simulations"] or 1
-                row.update(
-                    n_simulations=v["n_simulations"],
-                    wall_s_search=v["wall_s"],
-                    wall_s_per_sim=v["wall_s"] / n,
-                )
-                st.update(last_cost=v["wall_s"] / n, last_dt=row["timestep_s"], last_n=n)
-                if row["timestep_s"]:
-                    st["history"].append((float(row["timestep_s"]), v["wall_s"] / n))
-                if v["never_toppled"]:
-                    row.update(
-                        status="out_of_range",
-                        rel_error=math.inf,
-                        abs_rel_error=math.inf,
-                        note=f"never toppled up to {hi:.6g}",
-                    )
-                elif v["toppled_at_lo"]:
-                    row.update(
-                        status="out_of_range",
-                        threshold=lo,
-                        rel_error=-math.inf,
-                        abs_rel_error=math.inf,
-                        note=f"toppled already at {lo:.6g}",
-                    )
-                else:
-                    err = v["minimum"] / ref - 1
-                    row.update(
-                        status="ok",
-                        threshold=v["minimum"],
-                        tolerance=v["tolerance"],
-                        rel_error=err,
-                        abs_rel_error=abs(err),
-                    )
-                result.provenance["engines"].setdefault(row["engine"], {}).setdefault("settings", {})[
-                    row["setting"]
-                ] = v["settings"]
-            else:
-                row.update(status=r.status, note=r.message.splitlines()[0][:300] if r.message else "")
-                st.update(last_cost=None)
+            _record_point(r, row, st, ref, lo, hi, result)
             rows.append(row)
             say(f"{row['engine']} {row['setting']}: {row['status']}", done / n_total)
             t = next_task(i)
@@ -467,6 +350,188 @@ def run(
         result.notes.append("no points were run")
         result.wall_time = time.perf_counter() - t_start
         return result
+    recs = _front_and_recommendations(df, ref, cfg)
+    result.tables["tradeoff_points"] = df
+    result.tables["tradeoff_recommendations"] = recs
+
+    _summarise(result, df, recs, ref, ref_source, lo, hi, cfg)
+
+    # ---- figure
+    try:
+        result.figures.append(_figure(df, ref))
+    except Exception as exc:  # pragma: no cover - plotting must never kill a study
+        result.notes.append(f"figure failed: {exc}")
+    result.wall_time = time.perf_counter() - t_start
+    return result
+
+
+def _blank_row(label: str, dt: float | None, prof: str, ex: dict[str, Any]) -> dict[str, Any]:
+    """The row of one point before its search: engine label, setting, nothing measured yet."""
+    variant = ({"timestep": dt} if dt is not None else {}) | {"profile": prof} | ex
+    return {
+        "engine": label,
+        "setting": _fmt_setting(variant),
+        "timestep_s": dt,
+        "profile": prof,
+        "variant": _fmt_setting(ex) if ex else "",
+        "status": "",
+        "threshold": None,
+        "tolerance": None,
+        "rel_error": None,
+        "abs_rel_error": None,
+        "n_simulations": None,
+        "wall_s_per_sim": None,
+        "wall_s_search": None,
+        "note": "",
+    }
+
+
+def _plans(
+    engines: Sequence[str], cfg: TradeoffConfig, result: StudyResult
+) -> tuple[dict[str, list[tuple[float | None, str, dict[str, Any]]]], dict[str, str]]:
+    """(points to run per engine, engine labels); engines not available are noted and skipped."""
+    from pbr_xval.engine import EngineNotAvailable
+    from pbr_xval.study.workers import engine_label, resolve_engine
+
+    plans: dict[str, list[tuple[float | None, str, dict[str, Any]]]] = {}
+    labels: dict[str, str] = {}
+    for name in engines:
+        try:
+            eng = resolve_engine(name)
+        except EngineNotAvailable as exc:
+            result.notes.append(f"{name}: not available ({exc}); skipped")
+            continue
+        labels[name] = engine_label(name)
+        plans[name] = _variants(cfg, labels[name], eng)
+        result.provenance["engines"][labels[name]] = {"versions": eng.versions()}
+    return plans, labels
+
+
+def _record_point(
+    r: Any, row: dict[str, Any], st: dict[str, Any], ref: float, lo: float, hi: float, result: StudyResult
+) -> None:
+    """Fill ``row`` from one threshold search ``r``; update the series state ``st`` (costs) and the
+    provenance (settings) in place."""
+    if r.ok:
+        v = r.value
+        n = v["n_simulations"] or 1
+        row.update(
+            n_simulations=v["n_simulations"],
+            wall_s_search=v["wall_s"],
+            wall_s_per_sim=v["wall_s"] / n,
+        )
+        st.update(last_cost=v["wall_s"] / n, last_dt=row["timestep_s"], last_n=n)
+        if row["timestep_s"]:
+            st["history"].append((float(row["timestep_s"]), v["wall_s"] / n))
+        if v["never_toppled"]:
+            row.update(
+                status="out_of_range",
+                rel_error=math.inf,
+                abs_rel_error=math.inf,
+                note=f"never toppled up to {hi:.6g}",
+            )
+        elif v["toppled_at_lo"]:
+            row.update(
+                status="out_of_range",
+                threshold=lo,
+                rel_error=-math.inf,
+                abs_rel_error=math.inf,
+                note=f"toppled already at {lo:.6g}",
+            )
+        else:
+            err = v["minimum"] / ref - 1
+            row.update(
+                status="ok",
+                threshold=v["minimum"],
+                tolerance=v["tolerance"],
+                rel_error=err,
+                abs_rel_error=abs(err),
+            )
+        result.provenance["engines"].setdefault(row["engine"], {}).setdefault("settings", {})[
+            row["setting"]
+        ] = v["settings"]
+    else:
+        row.update(status=r.status, note=r.message.splitlines()[0][:300] if r.message else "")
+        st.update(last_cost=None)
+
+
+def _series(
+    plans: dict[str, list[tuple[float | None, str, dict[str, Any]]]],
+) -> list[tuple[str, str, dict[str, Any], list[float | None]]]:
+    """The plans grouped into series (engine, profile, overrides, timesteps coarse to fine)."""
+    series: list[tuple[str, str, dict[str, Any], list[float | None]]] = []
+    for name, plan in plans.items():
+        seen: dict[tuple[str, str], list[float | None]] = {}
+        exs: dict[tuple[str, str], dict[str, Any]] = {}
+        for dt, prof, ex in plan:
+            k = (prof, repr(sorted(ex.items())))
+            seen.setdefault(k, []).append(dt)
+            exs[k] = ex
+        for (prof, kk), dts in seen.items():
+            series.append((name, prof, exs[(prof, kk)], dts))
+    return series
+
+
+def _reference_threshold(
+    cfg: TradeoffConfig,
+    scenario: Scenario,
+    data: Any,
+    source: Any,
+    result: StudyResult,
+    say: Callable[[str, float], None],
+) -> tuple[float, str] | None:
+    """(reference threshold, where it comes from): the config's value, else the reference engine's
+    search (its settings and versions go into ``result.provenance``); None, with a note, if it gave none."""
+    from pbr_xval.study.workers import CallTask, run_many
+
+    ref = cfg.reference
+    ref_source = "analytical (config)"
+    if ref is None:
+        v0 = float(scenario.get_value(cfg.param))
+        lo0, hi0 = (cfg.lo or 0.5 * v0), (cfg.hi or 2.0 * v0)
+        say(f"reference threshold ({cfg.reference_engine})", 0.0)
+        r = next(
+            iter(
+                run_many(
+                    [
+                        CallTask(
+                            "pbr_xval.study.tradeoff:threshold_point",
+                            {
+                                "scenario": data,
+                                "source": source,
+                                "engine": cfg.reference_engine,
+                                "settings": {},
+                                "param": cfg.param,
+                                "lo": lo0,
+                                "hi": hi0,
+                                "n_grid": max(cfg.n_grid, 8),
+                                "rel_tol": cfg.rel_tol / 10,
+                            },
+                            timeout=cfg.timeout_per_point,
+                        )
+                    ]
+                )
+            )
+        )
+        if not r.ok or r.value.get("minimum") is None:
+            result.notes.append(
+                f"reference engine {cfg.reference_engine!r} gave no threshold: {r.message or r.value}"
+            )
+            return None
+        ref = float(r.value["minimum"])
+        ref_source = f"{cfg.reference_engine} engine"
+        result.provenance["engines"][cfg.reference_engine] = {
+            "settings": r.value["settings"],
+            "versions": r.value["versions"],
+        }
+    return ref, ref_source
+
+
+def _front_and_recommendations(df: Any, ref: float, cfg: TradeoffConfig) -> Any:
+    """Mark each engine's Pareto front in ``df`` (column ``on_front``), insert the reference column;
+    the recommended setting per engine and error budget."""
+    import pandas as pd
+
     df["on_front"] = False
     for _eng_name, grp in df.groupby("engine"):
         ok = grp["status"] == "ok"
@@ -485,10 +550,20 @@ def run(
             columns=["engine", "budget", "setting", "rel_error", "wall_s_per_sim", "timestep_s", "profile"]
         )
     )
-    result.tables["tradeoff_points"] = df
-    result.tables["tradeoff_recommendations"] = recs
+    return recs
 
-    # ---- summary and headline
+
+def _summarise(
+    result: StudyResult,
+    df: Any,
+    recs: Any,
+    ref: float,
+    ref_source: str,
+    lo: float,
+    hi: float,
+    cfg: TradeoffConfig,
+) -> None:
+    """The summary lines, notes and headline of a trade study (``result`` is filled in place)."""
     result.summary.append(
         f"Reference threshold {ref:.5g} ({ref_source}); search in [{lo:.4g}, {hi:.4g}], "
         f"rel. tol {cfg.rel_tol:g}."
@@ -529,14 +604,6 @@ def run(
     for _, b in bad.iterrows():
         result.notes.append(f"{b['engine']} {b['setting']}: {b['status']} {b['note']}")
     result.headline = head
-
-    # ---- figure
-    try:
-        result.figures.append(_figure(df, ref))
-    except Exception as exc:  # pragma: no cover - plotting must never kill a study
-        result.notes.append(f"figure failed: {exc}")
-    result.wall_time = time.perf_counter() - t_start
-    return result
 
 
 def _figure(df: Any, ref: float) -> Figure:
