@@ -136,7 +136,9 @@ def basal_nodes(
     from pbr_xval.geometry.stability import hull_vertices
 
     v = np.asarray(vertices, dtype=float)
-    hv = hull_vertices(v)  # memoised: every compile of a scene with this mesh
+    # the hull's vertices only (hull_vertices keeps every point of a set of ≤ 16, e.g. a notched
+    # block's concave corners, which must not become nodes); above that, memoised per mesh
+    hv = hull_vertices(v) if len(v) > 16 else v[ConvexHull(v).vertices]
     if count is None:
         return hv[hv[:, 2] < com[2]]
     zmin = hv[:, 2].min()
