@@ -1,0 +1,143 @@
+"""Re-measure the one-off figures of docs/validation.md, "Ensemble scores" (not run in CI).
+
+Reads the output folders of ``pbr-xval validate … --ensemble`` (their ``outcomes.csv`` and ``store/``) and
+prints, per folder:
+
+* ``rows``: one Markdown table row per model — the ensemble and the deterministic engines from the folder's
+  ``outcomes.csv``; the logistic baselines out of fold by record (4 record folds) fitted on *all* 196
+  calibration tests of the specimen; the transferred logistic law fitted on every test of the other
+  specimen — all scored on the folder's tests (so a run on a subset, ``--tests``, is compared with the
+  196-test baselines). On a run over all tests the rows equal the run's own ``scores.csv``.
+* ``boot``: a bootstrap over records (tests resampled by record, 4,000 draws, seed 0) of the ensemble's Brier
+  minus a baseline's, paired by test.
+* ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
+  deterministic runs, per engine, on the folder's tests.
+
+Usage::
+
+    python tools/ensemble_scores.py rows "SP1, lab" 1 /tmp/ens/sp1
+    python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)"
+    python tools/ensemble_scores.py cost /tmp/ens/sp1
+
+The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
+of the transferred law), relative to the repository root.
+"""
+
+from __future__ import annotations
+
+import glob
+import json
+import os
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+CAMPAIGN = ROOT.parent / "shared" / "data" / "shake_table"
+G = 9.80665
+
+
+def rows(label: str, specimen: str, folder: str) -> None:
+    from sklearn.metrics import brier_score_loss, f1_score, log_loss, roc_auc_score
+
+    from pbr_xval.validation.metrics import group_folds
+    from pbr_xval.validation.scores import RockGeometry, logistic_baselines, transferred_baseline
+
+    spec = int(specimen)
+    other = 3 - spec
+    ex = pd.read_csv(CAMPAIGN / "experiments.csv", dtype={"test": str})
+    pga = ex.pga_g.to_numpy() * G
+    pgv = pga * ex.pgv_over_pga_s.to_numpy()
+    obs = ex[f"toppled_specimen{spec}"].to_numpy(int)
+    lb = logistic_baselines(pga, pgv, obs, group_folds(ex.motion.tolist(), 4))
+    tg = RockGeometry.from_scenario(ROOT / f"examples/validation/sp{spec}.toml")
+    sg = RockGeometry.from_scenario(ROOT / f"examples/validation/sp{other}.toml")
+    src = pd.DataFrame({"pga": pga, "pgv": pgv, "observed": ex[f"toppled_specimen{other}"]})
+    tr = transferred_baseline(pd.DataFrame({"pga": pga, "pgv": pgv}), src, tg, sg)
+    oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str}).set_index("test")
+    m = ex.test.isin(oc.index).to_numpy()
+    o = obs[m]
+    assert (oc.loc[ex.test[m], "observed"].to_numpy(int) == o).all()
+
+    def sc(p: np.ndarray) -> tuple[float, float, float, float]:
+        pc = np.clip(p, 1e-3, 1 - 1e-3)
+        return (
+            brier_score_loss(o, pc),
+            log_loss(o, pc, labels=[0, 1]),
+            roc_auc_score(o, pc),
+            f1_score(o, (p >= 0.5).astype(int)),
+        )
+
+    out = {"ensemble": sc(oc.loc[ex.test[m], "p_ensemble"].to_numpy(float))}
+    for e in ("mujoco", "pybullet"):
+        if f"pred_{e}" in oc:
+            out[e] = sc(oc.loc[ex.test[m], f"pred_{e}"].to_numpy(float))
+    for k, v in lb.items():
+        out[k] = sc(np.asarray(v)[m])
+    out["transferred"] = sc(np.asarray(tr.p)[m])
+    for k, (b, ll, auc, f1) in out.items():
+        s = "**" if k == "ensemble" else ""
+        print(f"| {label} | {s}{k}{s} | {m.sum()} | {s}{b:.3f}{s} | {ll:.3f} | {auc:.3f} | {f1:.3f} |")
+    best = min(v[0] for k, v in out.items() if k.startswith("logistic"))
+    e, t = out["ensemble"][0], out["transferred"][0]
+    print(
+        f"# {label}: ensemble Brier vs best logistic {100 * (e / best - 1):+.1f} % (best {best:.4f}), "
+        f"vs transferred {100 * (e / t - 1):+.1f} %; toppled {o.sum()}/{len(o)}"
+    )
+
+
+def boot(folder: str, base: str) -> None:
+    oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
+    o = oc.observed.to_numpy(float)
+    d = ((oc.p_ensemble - o) ** 2 - (oc[base] - o) ** 2).to_numpy()
+    rec = oc.motion.to_numpy()
+    recs = np.unique(rec)
+    idx = {r: np.flatnonzero(rec == r) for r in recs}
+    rng = np.random.default_rng(0)
+    bs = np.array(
+        [d[np.concatenate([idx[r] for r in rng.choice(recs, len(recs))])].mean() for _ in range(4000)]
+    )
+    lo, hi = np.quantile(bs, [0.025, 0.975])
+    print(
+        f"{folder} ensemble − {base}: {d.mean():+.4f}  record bootstrap 95 % [{lo:+.4f}, {hi:+.4f}]  ({len(recs)} records, {len(o)} tests)"
+    )
+
+
+def cost(folder: str) -> None:
+    oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
+    tests = set(oc.test)
+    cols = ["engine", "motion_params", "wall_s", "status"]
+    df = pd.concat(
+        [pd.read_parquet(f, columns=cols) for f in glob.glob(f"{folder}/store/**/*.parquet", recursive=True)]
+    )
+    mp = df.motion_params.map(json.loads)
+    df["test"] = mp.map(lambda d: str(d.get("test")))
+    df["member"] = mp.map(lambda d: d.get("member"))
+    df = df[df.test.isin(tests)]
+    det = df[df.member.isna()].drop_duplicates(["engine", "test"])
+    mem = df[df.member.notna()].drop_duplicates(["engine", "test", "member"])
+    dsum, msum = det.groupby("engine").wall_s.sum(), mem.groupby("engine").wall_s.sum()
+    print(
+        f"{folder}: {len(tests)} tests, {len(mem) / len(tests):.2f} member runs per test ({len(mem)} runs), "
+        f"{len(det)} deterministic runs; members per test {oc.members_ensemble.value_counts().sort_index().to_dict()}"
+    )
+    for e in sorted(set(dsum.index) | set(msum.index)):
+        nd, nm = (det.engine == e).sum(), (mem.engine == e).sum()
+        print(
+            f"  {e}: deterministic {nd} runs {dsum.get(e, 0):.0f} s ({dsum.get(e, 0) / max(nd, 1):.2f} s/run), "
+            f"members {nm} runs {msum.get(e, 0):.0f} s ({msum.get(e, 0) / max(nm, 1):.2f} s/run), "
+            f"ratio {msum.get(e, 0) / dsum.get(e, np.nan):.2f}"
+        )
+    print(
+        f"  all engines: members {msum.sum():.0f} s / deterministic {dsum.sum():.0f} s = {msum.sum() / dsum.sum():.2f}; "
+        f"runs not ok: {int((det.status != 'ok').sum())} deterministic, {int((mem.status != 'ok').sum())} members"
+    )
+
+
+if __name__ == "__main__":
+    print(f"# {platform.processor() or platform.machine()}, load {os.getloadavg()[0]:.1f}")
+    cmd, *args = sys.argv[1:]
+    {"rows": rows, "boot": boot, "cost": cost}[cmd](*args)  # type: ignore[operator]
