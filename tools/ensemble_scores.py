@@ -10,6 +10,8 @@ prints, per folder:
   196-test baselines). On a run over all tests the rows equal the run's own ``scores.csv``.
 * ``boot``: a bootstrap over records (tests resampled by record, 4,000 draws, seed 0) of the ensemble's Brier
   minus a baseline's, paired by test.
+* ``split``: the Brier of the ensemble, the deterministic engines and the logistic baselines of the folder's
+  ``outcomes.csv`` on a list of tests (e.g. the 66 screening tests) and on the folder's other tests.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -18,6 +20,7 @@ Usage::
     python tools/ensemble_scores.py rows "SP1, lab" 1 /tmp/ens/sp1
     python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)"
     python tools/ensemble_scores.py cost /tmp/ens/sp1
+    python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
 of the transferred law), relative to the repository root.
@@ -137,7 +140,19 @@ def cost(folder: str) -> None:
     )
 
 
+def split(folder: str, tests: str) -> None:
+    oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
+    listed = oc.test.isin(tests.split(","))
+    cols = ["p_ensemble", *[c for c in oc if c.startswith(("pred_", "p_logistic"))]]
+    for name, m in (("listed", listed), ("others", ~listed)):
+        o = oc.observed[m]
+        briers = ", ".join(
+            f"{c} {((oc[c][m] - o) ** 2).mean():.4f}" for c in cols if not c.startswith("pred_PG")
+        )
+        print(f"{folder} {name} ({int(m.sum())} tests): Brier {briers}")
+
+
 if __name__ == "__main__":
     print(f"# {platform.processor() or platform.machine()}, load {os.getloadavg()[0]:.1f}")
     cmd, *args = sys.argv[1:]
-    {"rows": rows, "boot": boot, "cost": cost}[cmd](*args)  # type: ignore[operator]
+    {"rows": rows, "boot": boot, "cost": cost, "split": split}[cmd](*args)  # type: ignore[operator]
