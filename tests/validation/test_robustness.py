@@ -100,3 +100,34 @@ def test_member_flips_name_the_tests_whose_members_changed() -> None:
     # tilt: test 1's members swap outcomes (P unchanged, yet fragile); haswell: the same as base
     flips = member_flips({"base": base, "tilt": m([False, True, False, False]), "haswell": base})
     assert flips == {"tilt": ["1"], "haswell": []}
+
+
+def test_kernel_variants_run_validate_with_another_cpus_blas_kernels(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``haswell`` / ``sandybridge``: the committed campaign in a process whose OpenBLAS uses an
+    AVX2 (AVX) CPU's kernels, in a store of its own; ``base`` in this process's environment."""
+    import subprocess
+
+    from pbr_xval.validation import robustness
+
+    seen: dict[str, Any] = {}
+
+    def fake_run(cmd: list[str], check: bool, env: dict[str, str] | None = None) -> None:
+        out = tmp_path / cmd[cmd.index("--out") + 1]
+        name = out.name
+        seen[name] = (env or {}).get("OPENBLAS_CORETYPE")
+        out.mkdir(parents=True, exist_ok=True)
+        oc = _oc([1, 0, 0, 1] if name == "base" else [1, 1, 0, 1]).rename(columns={"pred_e": "pred_mujoco"})
+        oc.to_csv(out / "outcomes.csv", index=False)
+
+    monkeypatch.setattr(subprocess, "run", fake_run)
+    monkeypatch.delenv("OPENBLAS_CORETYPE", raising=False)
+    rc = main(["camp", "--scenario", str(REPO / "examples/validation/sp1.toml"), "--engine", "mujoco",
+               "--out", str(tmp_path / "o"), "--variants", "base,haswell,sandybridge"])  # fmt: skip
+    assert rc == 0
+    assert seen == {"base": None, "haswell": "Haswell", "sandybridge": "Sandybridge"}
+    assert robustness.KERNEL_VARIANTS == {"haswell": "Haswell", "sandybridge": "Sandybridge"}
+    import json
+
+    assert json.loads((tmp_path / "o" / "robustness.json").read_text())["fragile_tests"] == ["2"]
