@@ -1,6 +1,6 @@
 """``pbr-xval rock``: a scan (mesh or point cloud) → rock model, printed and written as a report.
 
-The lead wires :func:`rock_command` into ``pbr_xval.cli``.
+The command itself is declared in :mod:`pbr_xval.cli.rock`, which calls :func:`rock_command`.
 """
 
 from __future__ import annotations
