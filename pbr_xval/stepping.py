@@ -27,7 +27,7 @@ figures are those of the samples. The first-crossing criteria get a row after ev
 the rock reaches half its smallest critical tilt the blocks shrink to an eighth, so a run that
 stops on toppling overshoots by at most that many rows.
 
-The one exception: the ``reference`` engine (:mod:`pbr_xval.reference.engine`) does not run on
+The one exception: the ``reference`` engine (:mod:`pbr_xval.reference.adapter`) does not run on
 :func:`run_steps`; it drives :class:`Recorder` itself (``Recorder.record`` at the output times and
 near toppling, ``Recorder.record_block`` for the held samples once the rock is at rest). Its time
 step is event-driven, not a fixed grid of steps k0 … k1 − 1: a step that penetrates deeper than

@@ -2,7 +2,7 @@
 
 Modules, to read beside the paper's Section 3:
 
-* :mod:`~pbr_xval.reference.engine` — the engine (settings, the time loop, step-backs, events);
+* :mod:`~pbr_xval.reference.adapter` — the adapter (settings, the time loop, step-backs, events);
 * :mod:`~pbr_xval.reference.dynamics` — state (u_cm, u̇_cm, R, l), eqs. 3.1–3.4, contact
   detection within ±ε, collisions (eq. 3.5), resting contact (eqs. 3.6–3.7), in NumPy;
 * :mod:`~pbr_xval.reference.kernel` — the same step compiled with numba (``compiled = True``,

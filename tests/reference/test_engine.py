@@ -266,7 +266,7 @@ def test_five_second_run_settles_without_lcp_failures():
 def test_step_accepted_after_stepback_limit_is_reported():
     """A step accepted with more than ε of penetration (no step-back allowed here) is a
     counted diagnostic and an event, never silent."""
-    from pbr_xval.reference.engine import MAX_ACCEPT_EVENTS
+    from pbr_xval.reference.adapter import MAX_ACCEPT_EVENTS
 
     traj = run_scene(_housner(5.0, duration=1.8), "reference", {"max_stepbacks": 0})
     assert traj.ok, traj.message
@@ -301,7 +301,7 @@ def test_side_nodes_are_the_hull_vertices_above_the_com():
     """Side nodes add only hull vertices above the COM (they cannot touch a flat pedestal
     before the rock tips past horizontal): the box gets its 4 top corners, the notched block
     too — never the notch's inner corners, which the two-pivot model leaves out."""
-    from pbr_xval.reference.engine import basal_nodes
+    from pbr_xval.reference.adapter import basal_nodes
 
     for scn in (conf.housner_scenario(), conf.notched_scenario()):
         scene = compile_scene(scn)
@@ -338,6 +338,7 @@ def test_penetration_at_the_band_edge_is_accepted_not_stepped_back():
     past −ε made every step — at every halving — fail the ε check, so the run advanced by
     Δt/2¹² per 13 kernel calls. A step ending within BAND_TOLERANCE·ε of the band is accepted
     (and the engine projects it back); one ending deeper is still rejected."""
+    from pbr_xval.reference.adapter import ReferenceEngine
     from pbr_xval.reference.dynamics import (
         BAND_TOLERANCE,
         Body,
@@ -346,7 +347,6 @@ def test_penetration_at_the_band_edge_is_accepted_not_stepped_back():
         State,
         StepRejected,
     )
-    from pbr_xval.reference.engine import ReferenceEngine
 
     s = ReferenceEngine().resolve_settings({})
     eps = s["epsilon"]
