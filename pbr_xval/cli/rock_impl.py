@@ -94,7 +94,6 @@ def rock_command(
 
     from rich.console import Console
     from rich.markup import escape
-    from rich.table import Table
 
     from pbr_xval.atomic import check_output_dir, check_output_file
     from pbr_xval.errors import OutputPathError
@@ -170,6 +169,32 @@ def rock_command(
             refined_min_at_phi_deg=math.degrees(phi_min),
             refined_step_deg=step,
         )
+    t = _rock_table(model, d)
+    con.print(t)
+    _atomic_write_text(out_dir / "rock.json", json.dumps(d, indent=2, default=float))
+    _picture(model, out_dir / "rock.png")
+    plot_stability_polar(model.stability, out_dir / "polar.png", g=gravity, title=model.name)
+    con.print(f"wrote {out_dir}/rock.json, rock.png, polar.png")
+    if scenario is not None:
+        try:
+            write_rock_scenario(
+                model, Path(scan), Path(scenario), units=units, pose=pose, density=density, mass=mass
+            )
+        except ValueError as exc:
+            return fail(str(exc))
+        con.print(
+            f"wrote scenario {scenario} (check it with: pbr-xval check {scenario}; "
+            f"find its toppling amplitude with: pbr-xval threshold {scenario} --engine mujoco)"
+        )
+    return 0
+
+
+def _rock_table(model: Any, d: dict[str, Any]) -> Any:
+    """The rich table ``pbr-xval rock`` prints for ``model`` (``d``: its ``to_dict()``, with the
+    refined critical-tilt minimum when the rock is at rest)."""
+    from rich.table import Table
+
+    ct = d["critical_tilt"]
     f3 = lambda a: "(" + ", ".join(f"{x:.4f}" for x in a) + ")"  # noqa: E731
     t = Table(title=f"rock model: {model.name}", show_header=False)
     t.add_row("mass", f"{d['mass_kg']:.2f} kg  (density {d['density_kg_m3']:.1f} kg/m³)")
@@ -226,23 +251,7 @@ def rock_command(
         t.add_row("[yellow]reconstruction[/yellow]", w)
     for r in d["info"]["scan"].get("repairs", []):
         t.add_row("repair", r)
-    con.print(t)
-    _atomic_write_text(out_dir / "rock.json", json.dumps(d, indent=2, default=float))
-    _picture(model, out_dir / "rock.png")
-    plot_stability_polar(model.stability, out_dir / "polar.png", g=gravity, title=model.name)
-    con.print(f"wrote {out_dir}/rock.json, rock.png, polar.png")
-    if scenario is not None:
-        try:
-            write_rock_scenario(
-                model, Path(scan), Path(scenario), units=units, pose=pose, density=density, mass=mass
-            )
-        except ValueError as exc:
-            return fail(str(exc))
-        con.print(
-            f"wrote scenario {scenario} (check it with: pbr-xval check {scenario}; "
-            f"find its toppling amplitude with: pbr-xval threshold {scenario} --engine mujoco)"
-        )
-    return 0
+    return t
 
 
 def _is_point_cloud(scan: Path) -> bool:
