@@ -296,6 +296,17 @@ class ReferenceEngine(EngineBase):
 
     # ------------------------------------------------------------------ simulate
     def simulate(self, scene: Scene, settings: Mapping[str, Any] | None = None) -> Trajectory:
+        """Run ``scene`` with the LCP solver (settings as :meth:`resolve_settings`): the engine
+        interface's ``simulate``, returning the :class:`~pbr_xval.trajectory.Trajectory`.
+
+        Why one long function (~330 lines, over the house's 150): it is the event-driven time loop
+        of the paper's §3 — compiled quiet blocks, single steps, impacts, step-backs after rejected
+        steps with their re-planned loads, the cost budget and the recorder — and those branches
+        share some twenty pieces of mutable loop state (time, step size, state vector, load plan,
+        solver memory, counters) that any split would hand back and forth on every step; the
+        settings checks and the load functions at its top are its prologue. It is the documented
+        exception to :func:`pbr_xval.stepping.run_steps` (see that module's docstring).
+        """
         from pbr_xval.reference import kernel
         from pbr_xval.reference.dynamics import (
             Body,

@@ -1000,6 +1000,11 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     -------
     int : ``STEP_OK``, ``STEP_REJECTED``, ``STEP_GENERAL`` (see the module docstring) or
     ``STEP_IMPACT``.
+
+    Why one long function (~170 lines, over the house's 150): it is the compiled hot path of every
+    step (numba, ``nopython``); its blocks follow the paper's eqs. 3.1–3.7 in order (kinematics,
+    contact set, resting solve, update, end-of-step check) and share their temporaries without
+    call boundaries inside the kernel.
     """
     for j in range(N_INFO):
         info[j] = 0.0
