@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pbr_xval import stepping
+from pbr_xval import quaternions, stepping
 from pbr_xval.engine import (
     Capabilities,
     EngineBase,
@@ -342,7 +342,7 @@ class _MjStepper(StepperBase):
         speed = (
             self.speed(self.vlin, self.wbody, self.scene) if np.all(np.isfinite(self.d.qpos)) else math.inf
         )
-        return self.pos.copy(), stepping.quats_to_mats(self.quat[None])[0].reshape(3, 3), speed
+        return self.pos.copy(), quaternions.quats_to_mats(self.quat[None])[0].reshape(3, 3), speed
 
     def begin(self, n: int) -> None:
         scene, dt, npj = self.scene, self.dt, self.npj
@@ -388,7 +388,7 @@ class _MjStepper(StepperBase):
             block.com[:n] = qb[:n, qa : qa + 3]
             if moving:
                 block.com[:n, : self.npj] -= qb[:n, self.pq : self.pq + self.npj]
-            rot = block.rot[:n] = stepping.quats_to_mats(qb[:n, qa + 3 : qa + 7])
+            rot = block.rot[:n] = quaternions.quats_to_mats(qb[:n, qa + 3 : qa + 7])
             # ω in the pedestal frame = R ω_body, one stacked product per block
             block.omega[:n] = np.matmul(rot.reshape(n, 3, 3), vb[:n, va + 3 : va + 6, None])[:, :, 0]
 

@@ -194,7 +194,7 @@ def constrain_command(
     unc = None
     notes = list(cfg.notes) + sorted({n for c in cfg.branches for n in c.notes})
     if cfg.draws and res.joint_mode == "independent":
-        from pbr_xval.hazard.uncertainty import propagate
+        from pbr_xval.hazard.fragility_draws import propagate
 
         unc = propagate(res, cfg.branches, cfg.rocks, cfg.draws)
         res.summary["fragility_uncertainty"] = unc.to_dict()

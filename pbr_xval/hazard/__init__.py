@@ -8,7 +8,7 @@
 * :mod:`~pbr_xval.hazard.nrml` — NRML ``fragilityModel`` writer and readers.
 * :mod:`~pbr_xval.hazard.survival` — survival probability, joint survival, reweighting of hazard
   branches (constrained mean and fractile curves), the check that a curve spans a fragility.
-* :mod:`~pbr_xval.hazard.uncertainty` — the fragility's draws carried into P_s and the reweighted
+* :mod:`~pbr_xval.hazard.fragility_draws` — the fragility's draws carried into P_s and the reweighted
   hazard, with variance shares (hazard branch, fragility, exposure age).
 * :mod:`~pbr_xval.hazard.vector` — the vector fragility (PGA × PGV/PGA) as a PGA fragility under a
   stated model of PGV/PGA given PGA.
@@ -27,6 +27,7 @@ from pbr_xval.hazard.curves import (
     read_hazard_curve,
     read_hazard_curves,
 )
+from pbr_xval.hazard.fragility_draws import FragilityDraws, UncertaintyResult, draws_from_profile, propagate
 from pbr_xval.hazard.fragility_functions import (
     DiscreteFragility,
     LognormalFragility,
@@ -49,7 +50,6 @@ from pbr_xval.hazard.survival import (
     truncation_check,
     weighted_quantile,
 )
-from pbr_xval.hazard.uncertainty import FragilityDraws, UncertaintyResult, draws_from_profile, propagate
 from pbr_xval.hazard.vector import PgvPgaModel, VectorFragility
 
 __all__ = [

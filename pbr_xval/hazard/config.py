@@ -76,7 +76,7 @@ class ConstrainConfig:
     truncation_p_max: float = 0.01
     tail_tolerance: float = 0.01
     im_of_interest: float | None = None  # SI
-    #: rock id → FragilityDraws (pbr_xval.hazard.uncertainty), for rocks whose fragility is drawn
+    #: rock id → FragilityDraws (pbr_xval.hazard.fragility_draws), for rocks whose fragility is drawn
     draws: dict[str, Any] = field(default_factory=dict)
     pgv_pga: Any = None
 
@@ -384,8 +384,8 @@ def _draws_csv(f: Path, w: str, frag: Any) -> dict[str, Any] | None:
 
 def _draws(r: dict[str, Any], w: str, base: Path, frag: Any, unc: str | None, n: int, seed: int) -> Any:
     """The rock's fragility draws (or None: the fragility taken as known)."""
+    from pbr_xval.hazard.fragility_draws import FragilityDraws, draws_from_profile
     from pbr_xval.hazard.fragility_functions import LognormalFragility
-    from pbr_xval.hazard.uncertainty import FragilityDraws, draws_from_profile
 
     if "ensemble" in r:
         if unc not in (None, "ensemble"):

@@ -284,8 +284,8 @@ def write_report(c: Constraint, rocks: list[RockInput], out: str | Path, title: 
 
     ``given_mean`` (a :class:`~pbr_xval.hazard.curves.HazardCurve`): an input mean curve drawn for
     reference when the hazard came as fractiles. ``unc``: the
-    :class:`~pbr_xval.hazard.uncertainty.UncertaintyResult` of the rocks' fragility draws
-    (``draws``, rock id → :class:`~pbr_xval.hazard.uncertainty.FragilityDraws`), shown beside the
+    :class:`~pbr_xval.hazard.fragility_draws.UncertaintyResult` of the rocks' fragility draws
+    (``draws``, rock id → :class:`~pbr_xval.hazard.fragility_draws.FragilityDraws`), shown beside the
     fitted fragilities' figures. The page gives IMs in the field's units (g for PGA and SA, cm/s for
     PGV); the files are SI with the unit in each column name."""
     out = Path(out)

@@ -50,7 +50,7 @@ def build_ensemble_chunks(
     """
     from pbr_xval.catalog.predict import ensemble_rock
     from pbr_xval.catalog.tasks import ChunkSpec
-    from pbr_xval.validation.runner import _safe
+    from pbr_xval.validation.execution import _safe
 
     rock = ensemble_rock(scn)
     chunks = []
@@ -259,7 +259,7 @@ def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray,
 
 def add_ensemble_model(res: Any, p: np.ndarray, n_ok: np.ndarray, *, evaluated_on: str) -> None:
     """Add the ensemble's P(topple) to a validation result (``p_ensemble``, a scores row)."""
-    from pbr_xval.validation import report
+    from pbr_xval.validation import campaign_report as report
 
     add_model = getattr(report, "add_model", None)
     if add_model is not None:
@@ -281,7 +281,7 @@ def add_ensemble_model(res: Any, p: np.ndarray, n_ok: np.ndarray, *, evaluated_o
 
 def ensemble_lines(res: Any) -> list[str]:
     """``F1 ensemble <v>``, and ``Brier ensemble <v>`` unless the report prints every model's Brier."""
-    from pbr_xval.validation import report
+    from pbr_xval.validation import campaign_report as report
 
     s = res.scores.set_index("model")
     lines = [f"F1 {MODEL} {s.loc[MODEL, 'f1']:.4f}"]

@@ -14,9 +14,9 @@ import pytest
 from scipy import stats
 
 from pbr_xval.hazard.config import load_config
+from pbr_xval.hazard.fragility_draws import propagate
 from pbr_xval.hazard.ims import G
 from pbr_xval.hazard.survival import constrain
-from pbr_xval.hazard.uncertainty import propagate
 
 ROOT = Path(__file__).resolve().parents[2]
 REPORT = ROOT / "reports" / "hazard_sp1"

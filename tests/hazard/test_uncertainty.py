@@ -10,7 +10,7 @@ import pytest
 from scipy import stats
 
 from pbr_xval.hazard import Age, HazardCurve, LognormalFragility, RockInput, constrain
-from pbr_xval.hazard.uncertainty import FragilityDraws, draws_from_profile, propagate, variance_shares
+from pbr_xval.hazard.fragility_draws import FragilityDraws, draws_from_profile, propagate, variance_shares
 
 X1, K = 0.5, 2.8  # curves λ_b(x) = k0_b x^−K above x1 (m/s²)
 K0 = (1.2e-4, 3.0e-4)

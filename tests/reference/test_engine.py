@@ -377,7 +377,7 @@ def test_no_stepback_cascade_on_sp1_test18():
     from pbr_xval.catalog.tasks import scenario_dict
     from pbr_xval.scenario import load_scenario, scenario_from_dict
     from pbr_xval.validation.campaign import Baseline, load_campaign
-    from pbr_xval.validation.runner import build_validation_chunks, prepare_motions
+    from pbr_xval.validation.execution import build_validation_chunks, prepare_motions
 
     root = Path(__file__).resolve().parents[2]
     data = root.parent / "shared" / "data" / "shake_table"
