@@ -35,7 +35,6 @@ import argparse
 import functools
 import json
 import os
-import platform
 import resource
 import shutil
 import subprocess
@@ -44,6 +43,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from pbr_xval.machine import machine_info
+
 print = functools.partial(print, flush=True)
 
 HERE = Path(__file__).resolve().parent
@@ -51,16 +52,6 @@ ROOT = HERE.parent
 GOAL_WALL_MIN = 15.0  # min, 196 tests × 16 members on 2 cores
 GOAL_ADAPTIVE_RATIO = 6.0  # adaptive ensemble wall / deterministic wall
 FULL_TESTS, FULL_MEMBERS = 196, 16
-
-
-def _cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def _children_cpu() -> float:
@@ -136,7 +127,7 @@ def main() -> None:
         tests = all_tests
     n_full = len(all_tests)
     print(
-        f"machine: {_cpu_model()}, {os.cpu_count()} logical CPUs; {a.workers} workers; "
+        f"machine: {machine_info()['cpu_model'] or 'unknown CPU'}, {os.cpu_count()} logical CPUs; {a.workers} workers; "
         f"load average at start {tuple(round(x, 2) for x in os.getloadavg())}"
     )
     print(

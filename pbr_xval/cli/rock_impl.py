@@ -17,10 +17,6 @@ from pbr_xval.atomic import write_text_atomic
 __all__ = ["rock_command", "write_rock_scenario"]
 
 
-def _atomic_write_text(path: Path, text: str) -> None:
-    write_text_atomic(path, text)
-
-
 def _picture(model: Any, path: Path) -> None:
     """Two orthographic views (x–z side, x–y plan) with the contact patch and the COM."""
     import matplotlib
@@ -171,7 +167,7 @@ def rock_command(
         )
     t = _rock_table(model, d)
     con.print(t)
-    _atomic_write_text(out_dir / "rock.json", json.dumps(d, indent=2, default=float))
+    write_text_atomic(out_dir / "rock.json", json.dumps(d, indent=2, default=float))
     _picture(model, out_dir / "rock.png")
     plot_stability_polar(model.stability, out_dir / "polar.png", g=gravity, title=model.name)
     con.print(f"wrote {out_dir}/rock.json, rock.png, polar.png")

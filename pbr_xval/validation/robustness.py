@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -432,7 +433,6 @@ def logistic_out_of_fold(
 def _provenance() -> dict[str, Any]:
     """Date, machine, load and commit of a measurement (the runs may have been resumed from a store)."""
     import datetime
-    import os
 
     from pbr_xval.machine import machine_info
 
@@ -454,8 +454,6 @@ def _provenance() -> dict[str, Any]:
 
 def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
     """The base ensemble in a process whose OpenBLAS uses its Haswell kernels (written to ``folder``)."""
-    import os
-
     cmd = [sys.executable, "-m", "pbr_xval.validation.robustness", str(a.campaign), "--specimen", str(a.specimen),
            "--scenario", str(a.scenario), "--ensemble", "--variants", "base", "--batch", str(a.batch),
            "--workers", str(a.workers), "--out", str(folder)]  # fmt: skip
@@ -465,7 +463,7 @@ def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
         cmd += ["--half-width", str(a.half_width)]
     if a.tests:
         cmd += ["--tests", a.tests]
-    subprocess.run(cmd, check=True, env={**os.environ, "OPENBLAS_CORETYPE": "Haswell"})
+    subprocess.run(cmd, check=True, env={**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS["haswell"]})
 
 
 def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
@@ -572,8 +570,6 @@ def main(argv: list[str] | None = None) -> int:
             cmd += ["--tests", a.tests]
         env = None
         if name in KERNEL_VARIANTS:  # its own store: the chunk keys do not name the BLAS kernels
-            import os
-
             env = {**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS[name]}
         print(f"robustness: {a.engine} {name}: {' '.join(cmd[1:])}", flush=True)
         subprocess.run(cmd, check=True, env=env)
