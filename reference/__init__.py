@@ -20,8 +20,10 @@ This is the one place that lists them; each is also marked where it is implement
 1. **Resting contact is not Baraff's Dantzig extended to 3-D.** The paper modifies Baraff's
    (1994) 2-D friction pivoting for 3-D; that algorithm is not published. Here the resting
    forces of eqs. 3.6–3.7 (exact circular cone, μ_s) come from an active-set solve
-   (:func:`kernel.active_set_solve`: the previous step's free/stick/slide statuses, one
-   equality solve, *verified* against every condition of eqs. 3.6–3.7, a few corrections);
+   (:func:`kernel.active_set_solve`: the previous step's free/stick/slide/impending-slip
+   statuses — impending slip: static friction on the cone, its direction found by a Newton
+   iteration so that it opposes the tangential acceleration — one equality solve, *verified*
+   against every condition of eqs. 3.6–3.7, a few corrections);
    when no guess verifies, from an iterative cone solver (:func:`cone.solve_friction_cone`)
    and, if that does not converge, a 16-facet friction-pyramid LCP solved by Lemke
    (:func:`cone.solve_friction_pyramid`). Failures of both are counted (``lcp_failures``).

@@ -60,7 +60,7 @@ Resting contact (eqs. 3.6–3.7)
     The direct iteration starts from end-of-step forces extrapolated linearly from the
     previous step.
 
-    Solving: the active set (free / stick / slide per contact) of the previous solve is
+    Solving: the active set (free / stick / slide / impending slip per contact) of the previous solve is
     tried first (:func:`kernel.active_set_solve`); the answer is accepted only if it
     satisfies every condition of eqs. 3.6–3.7; otherwise the general solvers of
     :mod:`pbr_xval.reference.cone` are called. Every deviation from the paper is listed in
@@ -112,6 +112,10 @@ BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 #: step would be rejected again — the step-back cascade. The engine then projects the rock
 #: back onto the band (``ReferenceEngine``: ``band_projections`` in the diagnostics).
 BAND_TOLERANCE = 1e-3
+#: after a general resting solve, a sticking contact whose friction is within this fraction of
+#: the static cone's radius is guessed as impending slip (status 3) by the next active-set solve
+#: (a guess only, verified there; the 16-facet pyramid fallback reaches 98 % of the radius)
+SLIP_GUESS_RTOL = 0.03
 
 
 def cull_tilts(nodes: np.ndarray, eps: float, n_ref: int = 64) -> np.ndarray:
@@ -432,7 +436,9 @@ class RigidBodySolver:
         self.accept_any = False
         self.stats = ContactStats()
         n = body.nodes.shape[0]
-        self._active = np.ones(n, dtype=np.int64)  # per node: 0 free, 1 stick, 2 slide (last solve)
+        self._active = np.ones(
+            n, dtype=np.int64
+        )  # per node: 0 free, 1 stick, 2 slide, 3 impending slip (last solve)
         self._prev_force = np.zeros((n, 3))  # per node: last (n, x, y) contact force, N
         self._pred = np.zeros(9)  # predictor memory: valid, t1, Δt, F0 (3), τ0 (3)
         self._pred_idx = np.zeros(n + 1, dtype=np.int64)  # its contact ids (count first)
@@ -603,16 +609,22 @@ class RigidBodySolver:
         self.stats.lcp_solves += 1
         status = self._active[c.idx]
         status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
-        ok, f, a, st = kernel.active_set_solve(A, b, status, np.full(k, self.mu_s), cons_tol, k + 1)
+        # impending slip (status 3): the friction's direction from the last solve
+        prev_t = self._prev_force[c.idx, 1:]
+        ft = np.hypot(prev_t[:, 0], prev_t[:, 1])
+        status = np.where((status == 3) & (ft == 0.0), 1, status)
+        tdir = np.divide(prev_t, ft[:, None], out=np.zeros((k, 2)), where=ft[:, None] > 0)
+        ok, f, a, st = kernel.active_set_solve(A, b, status, np.full(k, self.mu_s), cons_tol, k + 2, tdir)
         if ok:
             self.stats.lcp_fast_path += 1
         else:
             f = self._full_resting(A, b, c)
             a = A @ f + b
             F = f.reshape(k, 3)
-            # impending slip at the static cone boundary cannot be represented by the
-            # active-set statuses; the full solver answers again next time
-            st = np.where(F[:, 0] > 0, np.where(c.slide, 2, 1), 0)
+            # a sticking contact whose friction is at the static cone (impending slip) is
+            # guessed as such by the next solve, its friction's direction from this one
+            at_cone = np.hypot(F[:, 1], F[:, 2]) >= self.mu_s * F[:, 0] * (1.0 - SLIP_GUESS_RTOL)
+            st = np.where(F[:, 0] > 0, np.where(c.slide, 2, np.where(at_cone & (self.mu_s > 0), 3, 1)), 0)
         self._active[c.idx] = st
         if diag:
             self._record_residuals(f, a, c.slide, c.any_slide)
@@ -716,7 +728,9 @@ class RigidBodySolver:
             # "approaching contacts stick, the others separate", verified; else the
             # iterative cone solver
             guess = np.where(approaching, 1, 0).astype(np.int64)
-            ok, j, _, _ = kernel.active_set_solve(A, q, guess, np.full(k, self.mu_s), 0.0, k + 1)
+            ok, j, _, _ = kernel.active_set_solve(
+                A, q, guess, np.full(k, self.mu_s), 0.0, k + 2, np.zeros((k, 2))
+            )
             if not ok:
                 res = cone.solve_friction_cone(A, q, self.mu_s, tol=1e-13, max_iter=20000, warm_start=prev)
                 self.stats.pgs_sweeps += res.iterations

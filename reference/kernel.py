@@ -452,9 +452,15 @@ def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel,
 
 
 @njit(cache=True)
-def _check(A, b, f, status, mu, cons_tol):
+def _check(A, b, f, status, mu, cons_tol, tdir):
     """Every condition of eqs. 3.6–3.7 for the active set ``status`` (0 free, 1 stick,
-    2 slide: normal clamped, friction folded into A); returns (ok, a)."""
+    2 slide: normal clamped, friction folded into A; 3 impending slip: normal clamped,
+    friction μ f_n ŝ on the static cone, ŝ = ``tdir[i]``); returns (ok, a).
+
+    For status 3 the tangential acceleration must oppose the friction force (maximum
+    dissipation, as the cone solver's :func:`cone._disc_local_solve`): a_t = −λ ŝ with
+    λ ≥ 0, i.e. its component across ŝ and its component along ŝ within the clamped rows'
+    tolerance."""
     k = status.size
     n3 = b.size
     a = b.copy()
@@ -484,6 +490,11 @@ def _check(A, b, f, status, mu, cons_tol):
             return False, a
         if st == 1 and math.hypot(f[3 * i + 1], f[3 * i + 2]) > mu[i] * fn * (1 + 1e-12) + fscale:
             return False, a
+        if st == 3:
+            s0, s1 = tdir[i, 0], tdir[i, 1]
+            ax, ay = a[3 * i + 1], a[3 * i + 2]
+            if abs(s0 * ay - s1 * ax) > tol + cons_tol or s0 * ax + s1 * ay > tol + cons_tol:
+                return False, a
     return True, a
 
 
@@ -599,36 +610,172 @@ def _clamped_solve(A, b, status, scale):
 
 
 @njit(cache=True)
-def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
+def _count_slip(st):
+    m = 0
+    for i in range(st.size):
+        if st[i] == 3:
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def _solve_status(A, b, st, mu, tdir, scale):
+    """Forces of the active set ``st`` (:func:`_clamped_solve`); an impending-slip contact
+    (status 3) has one unknown, f_n, with the friction μ f_n ŝ folded into its column of A
+    (A e_n + μ A e_t ŝ, as :func:`contact_problem` folds dynamic friction into a sliding
+    contact's force row), and its friction filled in afterwards."""
+    m = _count_slip(st)
+    if m == 0:
+        return _clamped_solve(A, b, st, scale)
+    Af = A.copy()
+    n3 = A.shape[0]
+    for i in range(st.size):
+        if st[i] == 3:
+            c0 = mu[i] * tdir[i, 0]
+            c1 = mu[i] * tdir[i, 1]
+            for p in range(n3):
+                Af[p, 3 * i] = A[p, 3 * i] + c0 * A[p, 3 * i + 1] + c1 * A[p, 3 * i + 2]
+    f, ok = _clamped_solve(Af, b, st, scale)
+    for i in range(st.size):
+        if st[i] == 3:
+            f[3 * i + 1] = mu[i] * tdir[i, 0] * f[3 * i]
+            f[3 * i + 2] = mu[i] * tdir[i, 1] * f[3 * i]
+    return f, ok
+
+
+@njit(cache=True)
+def _slip_residual(A, b, f, st, tdir, js):
+    """Tangential acceleration across ŝ, ŝ × a_t, of each impending-slip contact ``js``."""
+    m = js.size
+    r = np.empty(m)
+    for q in range(m):
+        i = js[q]
+        ax = b[3 * i + 1]
+        ay = b[3 * i + 2]
+        for p in range(b.size):
+            ax += A[3 * i + 1, p] * f[p]
+            ay += A[3 * i + 2, p] * f[p]
+        r[q] = tdir[i, 0] * ay - tdir[i, 1] * ax
+    return r
+
+
+#: Newton iterations on the impending-slip directions per active-set solve
+SLIP_NEWTON_ITERATIONS = 8
+#: finite-difference step of that Newton iteration's Jacobian, rad
+SLIP_FD_STEP = 1e-7
+
+
+@njit(cache=True)
+def _slip_directions(A, b, st, mu, tdir, scale, f, rtol):
+    """Newton iteration on the angles of the impending-slip directions ŝ (``tdir``, updated
+    in place) until every such contact's tangential acceleration is parallel to ŝ (ŝ × a_t
+    below ``rtol``); the Jacobian by forward differences (one solve per direction).
+    Returns the forces of the last directions; :func:`_check` decides."""
+    m = _count_slip(st)
+    js = np.empty(m, dtype=np.int64)
+    q = 0
+    for i in range(st.size):
+        if st[i] == 3:
+            js[q] = i
+            q += 1
+    r = _slip_residual(A, b, f, st, tdir, js)
+    td = tdir.copy()
+    J = np.empty((m, m))
+    for _ in range(SLIP_NEWTON_ITERATIONS):
+        rmax = 0.0
+        for q in range(m):
+            rmax = max(rmax, abs(r[q]))
+        if rmax <= rtol:
+            break
+        h = SLIP_FD_STEP
+        ch, sh = math.cos(h), math.sin(h)
+        for q in range(m):
+            i = js[q]
+            s0, s1 = tdir[i, 0], tdir[i, 1]
+            td[i, 0] = ch * s0 - sh * s1
+            td[i, 1] = sh * s0 + ch * s1
+            fh, solved = _solve_status(A, b, st, mu, td, scale)
+            td[i, 0], td[i, 1] = s0, s1
+            if not solved:
+                return f
+            # the residual of contact q is measured across its own rotated direction
+            for p in range(m):
+                j = js[p]
+                if p == q:
+                    c0 = ch * s0 - sh * s1
+                    c1 = sh * s0 + ch * s1
+                else:
+                    c0, c1 = tdir[j, 0], tdir[j, 1]
+                ax = b[3 * j + 1]
+                ay = b[3 * j + 2]
+                for c in range(b.size):
+                    ax += A[3 * j + 1, c] * fh[c]
+                    ay += A[3 * j + 2, c] * fh[c]
+                J[p, q] = (c0 * ay - c1 * ax - r[p]) / h
+        dth, solved = _lu_solve(J, -r)
+        if not solved:
+            return f
+        for q in range(m):
+            i = js[q]
+            d = max(-0.5, min(0.5, dth[q]))
+            s0, s1 = tdir[i, 0], tdir[i, 1]
+            c, s = math.cos(d), math.sin(d)
+            tdir[i, 0] = c * s0 - s * s1
+            tdir[i, 1] = s * s0 + c * s1
+            td[i, 0], td[i, 1] = tdir[i, 0], tdir[i, 1]
+        f, solved = _solve_status(A, b, st, mu, tdir, scale)
+        if not solved:
+            return f
+        r = _slip_residual(A, b, f, st, tdir, js)
+    return f
+
+
+@njit(cache=True)
+def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
     """Exact solve of eqs. 3.6–3.7 on a guessed active set, verified; a few corrections.
 
-    Clamped rows (all three of a sticking contact, the normal of a sliding one) satisfy
-    A_EE f_E = −b_E, solved as the minimum-norm least-squares solution (through orthonormal
-    bases of the block's column and row spaces, :func:`_basis`): redundant forces are split
-    with minimum norm, and the part of b_E no force can reach is left over.  An answer is accepted only if it satisfies every
-    condition of eqs. 3.6–3.7 — f_n ≥ 0, a_n ≥ 0 on free contacts, the static cone on
-    sticking ones — and the clamped rows' residual is within 1e-9 |b| + ``cons_tol``
-    (``cons_tol``: the centripetal part |ω|² r of b, which no contact force can cancel
-    on three or more sticking points; zero at rest).  When it fails, contacts pulled into
-    tension are freed and free contacts that would penetrate are clamped, and the solve
-    is repeated (at most ``max_rounds`` rounds).
+    Clamped rows (all three of a sticking contact, the normal of a sliding or impending-slip
+    one) satisfy A_EE f_E = −b_E, solved as the minimum-norm least-squares solution (through
+    orthonormal bases of the block's column and row spaces, :func:`_basis`): redundant forces
+    are split with minimum norm, and the part of b_E no force can reach is left over.  An
+    answer is accepted only if it satisfies every condition of eqs. 3.6–3.7 — f_n ≥ 0, a_n ≥ 0
+    on free contacts, the static cone on sticking ones, friction opposing the tangential
+    acceleration on impending-slip ones — and the clamped rows' residual is within
+    1e-9 |b| + ``cons_tol`` (``cons_tol``: the centripetal part |ω|² r of b, which no contact
+    force can cancel on three or more sticking points; zero at rest).  When it fails,
+    contacts pulled into tension are freed and free contacts that would penetrate are clamped,
+    and the solve is repeated (at most ``max_rounds`` rounds); when no such change is left, a
+    sticking contact whose force leaves its cone is put at the cone's boundary (impending
+    slip, status 3, friction along its least-squares force) and an impending-slip contact whose
+    acceleration goes with its friction sticks again.
+
+    Impending slip (status 3): the contact does not slide yet (|v_t| ≤ the slip velocity) but
+    its static friction is saturated, f_t = μ f_n ŝ, and the tangential acceleration opposes
+    it, a_t = −λ ŝ, λ ≥ 0 (eq. 3.7 with maximum dissipation). The unknown direction ŝ is found
+    by a Newton iteration on its angle (:func:`_slip_directions`), starting from ``tdir``.
 
     Parameters
     ----------
-    A : (3k, 3k); b : (3k,); status : (k,) int guess (0 free, 1 stick, 2 slide);
-    mu : (k,) static friction; cons_tol : m/s² (or m/s for impacts); max_rounds : int.
+    A : (3k, 3k); b : (3k,); status : (k,) int guess (0 free, 1 stick, 2 slide, 3 impending
+    slip); mu : (k,) static friction; cons_tol : m/s² (or m/s for impacts); max_rounds : int;
+    tdir : (k, 2) unit tangential directions (x, y) of the friction of the status-3 contacts
+    of the guess (other rows unused).
 
     Returns
     -------
     (ok, f (3k,), a (3k,), status (k,) of the answer).
     """
     st = status.copy()
+    td = tdir.copy()
     k = st.size
     f = np.zeros(3 * k)
     a = b.copy()
     f1 = f.copy()
     a1 = a.copy()
     scale = np.ones(3 * k)
+    bmax = 0.0
+    for x in b:
+        bmax = max(bmax, abs(x))
     for _ in range(max_rounds):
         for attempt in range(2):
             if attempt == 1:
@@ -648,17 +795,18 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
                     s = math.sqrt(max(mu[i] * f[3 * i], 1e-6 * fmean) / fmean)
                     scale[3 * i + 1] = s
                     scale[3 * i + 2] = s
-            f_try, solved = _clamped_solve(A, b, st, scale)
+            f_try, solved = _solve_status(A, b, st, mu, td, scale)
             if not solved:
                 continue
+            if _count_slip(st) > 0:
+                f_try = _slip_directions(A, b, st, mu, td, scale, f_try, 1e-11 * bmax)
             f = f_try
-            ok, a = _check(A, b, f, st, mu, cons_tol)
+            ok, a = _check(A, b, f, st, mu, cons_tol, td)
             if ok:
                 return True, f, a, st
             if attempt == 0:
                 a1 = a.copy()
                 f1 = f.copy()
-        # correction of the guess from the least-squares answer
         f = f1
         a = a1
         for j in range(3 * k):
@@ -666,11 +814,8 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
         # correction of the guess from the last (least-squares) answer
         changed = False
         fmax = 0.0
-        bmax = 0.0
         for i in range(k):
             fmax = max(fmax, abs(f[3 * i]))
-        for x in b:
-            bmax = max(bmax, abs(x))
         for i in range(k):
             if st[i] > 0 and f[3 * i] < -1e-9 * fmax:
                 st[i] = 0
@@ -678,6 +823,22 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds):
             elif st[i] == 0 and a[3 * i] < -1e-9 * bmax:
                 st[i] = 2 if status[i] == 2 else 1
                 changed = True
+        if not changed:
+            # the normal statuses hold: correct the friction statuses (impending slip)
+            for i in range(k):
+                fn = f[3 * i]
+                if st[i] == 1 and fn > 0:
+                    ft = math.hypot(f[3 * i + 1], f[3 * i + 2])
+                    if ft > mu[i] * fn * (1 + 1e-12) and mu[i] > 0:
+                        st[i] = 3
+                        td[i, 0] = f[3 * i + 1] / ft
+                        td[i, 1] = f[3 * i + 2] / ft
+                        changed = True
+                elif st[i] == 3:
+                    along = td[i, 0] * a[3 * i + 1] + td[i, 1] * a[3 * i + 2]
+                    if along > 1e-9 * bmax + cons_tol:
+                        st[i] = 1
+                        changed = True
         if not changed:
             break
     return False, f, a, st
@@ -908,14 +1069,25 @@ def _forces(
         R, lm, inertia_inv, m, nodes[idx], slide, sdir, stab, a_load - ap, prm[P_MU_D]
     )
     status = np.empty(k, dtype=np.int64)
+    tdir = np.zeros((k, 2))
     for a in range(k):
         s = active[idx[a]]
         if slide[a]:
             status[a] = 0 if s == 0 else 2
         else:
             status[a] = 1 if s == 2 else s
+            if s == 3:
+                # impending slip: the friction's direction from the last solve
+                fx = prev_force[idx[a], 1]
+                fy = prev_force[idx[a], 2]
+                ft = math.hypot(fx, fy)
+                if ft > 0.0:
+                    tdir[a, 0] = fx / ft
+                    tdir[a, 1] = fy / ft
+                else:
+                    status[a] = 1
     info[I_SOLVES] += 1
-    ok, f, acc, st = active_set_solve(A, b, status, mu_vec, 2.0 * cons, k + 1)
+    ok, f, acc, st = active_set_solve(A, b, status, mu_vec, 2.0 * cons, k + 2, tdir)
     if not ok:
         return F, tau, False
     info[I_FAST] += 1

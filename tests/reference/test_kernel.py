@@ -96,7 +96,9 @@ def _box_problem(push: float, spin: float = 0.0) -> tuple[np.ndarray, ...]:
 def test_active_set_resting_box_statics() -> None:
     """At rest under gravity: f_n = m g / 4 per corner (symmetry), no friction, no motion."""
     A, b, gf, W, wrench, _ = _box_problem(0.0)
-    ok, f, _, _ = kernel.active_set_solve(A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5)
+    ok, f, _, _ = kernel.active_set_solve(
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2))
+    )
     assert ok
     F = f.reshape(4, 3)
     np.testing.assert_allclose(F[:, 0], MASS * G / 4, rtol=1e-9)
@@ -111,7 +113,9 @@ def test_active_set_shares_friction_by_cone_radius() -> None:
     P/4 = 0.075 m g; the friction must be split by load. The box stays at rest."""
     P = 0.3 * MASS * G
     A, b, gf, W, wrench, _ = _box_problem(P)
-    ok, f, _, _ = kernel.active_set_solve(A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5)
+    ok, f, _, _ = kernel.active_set_solve(
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2))
+    )
     assert ok
     F = f.reshape(4, 3)
     np.testing.assert_allclose(W @ (gf.T @ f + wrench), 0.0, atol=1e-9 * G)  # at rest
@@ -132,7 +136,9 @@ def test_active_set_sticking_with_spin_is_least_squares() -> None:
     spin = 0.01
     A, b, gf, W, wrench, cons = _box_problem(0.0, spin)
     assert cons == pytest.approx(spin**2 * np.linalg.norm(CORNERS[0]), rel=1e-12)
-    ok, f, a, _ = kernel.active_set_solve(A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 2 * cons, 5)
+    ok, f, a, _ = kernel.active_set_solve(
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 2 * cons, 5, np.zeros((4, 2))
+    )
     assert ok
     F = f.reshape(4, 3)
     assert np.all(F[:, 0] > 0)
