@@ -9,7 +9,8 @@ prints, per folder:
   specimen — all scored on the folder's tests (so a run on a subset, ``--tests``, is compared with the
   196-test baselines). On a run over all tests the rows equal the run's own ``scores.csv``.
 * ``boot``: a bootstrap over records (tests resampled by record, 4,000 draws, seed 0) of the ensemble's Brier
-  minus a baseline's, paired by test.
+  minus a baseline's, paired by test (``stacked``: the out-of-fold stacked mixture of
+  ``pbr_xval.validation.stacking`` instead of the ensemble as run).
 * ``split``: the Brier of the ensemble, the deterministic engines and the logistic baselines of the folder's
   ``outcomes.csv`` on a list of tests (e.g. the 66 screening tests) and on the folder's other tests.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
@@ -19,6 +20,7 @@ Usage::
 
     python tools/ensemble_scores.py rows "SP1, lab" 1 /tmp/ens/sp1
     python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)"
+    python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)" stacked   # the stacked mixture
     python tools/ensemble_scores.py cost /tmp/ens/sp1
     python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
 
@@ -92,10 +94,20 @@ def rows(label: str, specimen: str, folder: str) -> None:
     )
 
 
-def boot(folder: str, base: str) -> None:
+def _stacked(folder: str, oc: pd.DataFrame) -> np.ndarray:
+    """The out-of-fold stacked P of ``pbr_xval.validation.stacking`` for the rows of ``oc``."""
+    from pbr_xval.validation.stacking import engine_shares, stack_out_of_fold
+
+    members = pd.read_csv(f"{folder}/ensemble_members.csv", dtype={"test": str})
+    P, _, _ = engine_shares(members, oc.test.tolist())
+    return stack_out_of_fold(P, oc.observed.to_numpy(int), oc.fold.to_numpy(int))[0]
+
+
+def boot(folder: str, base: str, model: str = "ensemble") -> None:
     oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
     o = oc.observed.to_numpy(float)
-    d = ((oc.p_ensemble - o) ** 2 - (oc[base] - o) ** 2).to_numpy()
+    p = _stacked(folder, oc) if model == "stacked" else oc.p_ensemble.to_numpy(float)
+    d = (p - o) ** 2 - ((oc[base] - o) ** 2).to_numpy()
     rec = oc.motion.to_numpy()
     recs = np.unique(rec)
     idx = {r: np.flatnonzero(rec == r) for r in recs}
@@ -105,7 +117,7 @@ def boot(folder: str, base: str) -> None:
     )
     lo, hi = np.quantile(bs, [0.025, 0.975])
     print(
-        f"{folder} ensemble − {base}: {d.mean():+.4f}  record bootstrap 95 % [{lo:+.4f}, {hi:+.4f}]  ({len(recs)} records, {len(o)} tests)"
+        f"{folder} {model} − {base}: {d.mean():+.4f}  record bootstrap 95 % [{lo:+.4f}, {hi:+.4f}]  ({len(recs)} records, {len(o)} tests)"
     )
 
 
