@@ -4,7 +4,7 @@ The subset is fixed by a rule stated before any score on it was computed (chosen
 **every 27th test of the calibration list** (``experiments.csv`` order, from the first: every 9th
 of the 66 screening tests the "Ensemble scores" table scores), on both specimens — 8 tests each.
 The ensemble is the committed lab-mode one (``examples/validation/sp<N>.toml``: the MuJoCo +
-PyBullet mixture and its ``[uncertainty]`` table), adaptive as documented (batches of 4 until the
+PyBullet mixture with its stacked ``engine_weights`` and its ``[uncertainty]`` table), adaptive as documented (batches of 4 until the
 Jeffreys 95 % half-width is ≤ 0.1 or the interval excludes 0.5) but **at most 8 members**: the first
 8 members of the documented 16-member design, to fit CI's time budget.
 
