@@ -715,32 +715,66 @@ class RigidBodySolver:
         r = r_all[idx]
         k = idx.size
         vn = vel[idx, 0]
-        gm, _ = self._jacobians(r)
-        A = gm @ self._inv_mass(s.R) @ gm.T
-        bvel = vel[idx].reshape(-1)
-        # restitution: w = v⁺ + e v⁻ ≥ 0 for approaching contacts
-        q = bvel.copy()
-        approaching = vn < 0
-        q[0::3] += np.where(approaching, self.e * vn, 0.0)
+        bvel = np.ascontiguousarray(vel[idx].reshape(-1))
         prev = self._prev_force[idx].reshape(-1) * dt
-        if self.mu_s > 0:
-            # the impact cone (velocity form of eqs. 3.6–3.7 with μ_s): active-set guess
-            # "approaching contacts stick, the others separate", verified; else the
-            # iterative cone solver
-            guess = np.where(approaching, 1, 0).astype(np.int64)
-            ok, j, _, _ = kernel.active_set_solve(
-                A, q, guess, np.full(k, self.mu_s), 0.0, k + 2, np.zeros((k, 2))
-            )
-            if not ok:
-                res = cone.solve_friction_cone(A, q, self.mu_s, tol=1e-13, max_iter=20000, warm_start=prev)
-                self.stats.pgs_sweeps += res.iterations
-                if not res.converged:
-                    self.stats.lcp_failures += 1
-                j = res.f.copy()
-        else:
-            j = np.zeros(3 * k)
-        # eq. 3.5 on the normal impulses, tangential impulses held fixed; selection among the
-        # (for e = 0 and redundant contacts) non-unique solutions
+        # A = G M⁻¹ Gᵀ, q = v⁻ + e v_n⁻ (restitution: w = v⁺ + e v⁻ ≥ 0 for approaching
+        # contacts); the impact cone (velocity form of eqs. 3.6–3.7 with μ_s) by the active-set
+        # guess "approaching contacts stick, the others separate" (impending slip found by its
+        # corrections), verified; eq. 3.5 on the normal impulses, tangential impulses held
+        # fixed, when its solution is unique (compiled; the other stages below)
+        stage, A, q, j = kernel.impact_impulses(
+            s.R, self.body.inertia_inv, self.body.mass, np.ascontiguousarray(r), bvel, self.e, self.mu_s
+        )
+        if stage == kernel.IMPACT_CONE:
+            # the iterative cone solver
+            res = cone.solve_friction_cone(A, q, self.mu_s, tol=1e-13, max_iter=20000, warm_start=prev)
+            self.stats.pgs_sweeps += res.iterations
+            if not res.converged:
+                self.stats.lcp_failures += 1
+            j = res.f.copy()
+        elif stage == kernel.IMPACT_REVERTED:
+            self.stats.selection_reverted += 1
+        if stage in (kernel.IMPACT_CONE, kernel.IMPACT_SELECT):
+            self._impact_normals(A, q, j, prev)
+        jt = j.reshape(k, 3)
+        # velocity jump: Δu̇_cm = Σ J / m, Δl = Σ r × J (compiled)
+        v2, l2, nw2, vn_after, wres = kernel.impact_finish(
+            s.R, self.body.inertia_inv, self.body.mass, np.ascontiguousarray(r), A, q, bvel, j, s.v, s.l
+        )
+        res6 = cone._residuals(j, wres, np.full(k, self.mu_s))
+        st = self.stats
+        st.signorini_f.append(float(res6[0]))
+        st.signorini_a.append(float(res6[1]))
+        st.complementarity.append(float(res6[2]))
+        st.cone.append(float(res6[3]))
+        self._pred[0] = 0.0
+        s2 = s.copy()
+        s2.v = v2
+        s2.l = l2
+        self._prev_force[inband] = 0.0
+        self._prev_force[idx] = jt / max(dt, 1e-300)
+        self._active[inband] = 0
+        self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
+        self.stats.lcp_time += time.perf_counter() - t0
+        vmin = float(vn.min())
+        nw = math.sqrt(float(w.dot(w)))
+        info = {
+            "v_n_min": vmin,
+            "nodes": int(inband.size),
+            "hull_nodes": int(k),
+            "impulse_nodes": int(np.sum(jt[:, 0] > 0)),
+            "omega_before": nw,
+            "omega_after": nw2,
+            "ratio": nw2 / nw if nw > 0 else float("nan"),
+            "v_n_after_min": float(vn_after),
+        }
+        return s2, info
+
+    def _impact_normals(self, A: np.ndarray, q: np.ndarray, j: np.ndarray, prev: np.ndarray) -> None:
+        """Eq. 3.5 on the normal impulses of ``j`` (written), its tangential impulses held fixed,
+        when :func:`kernel.impact_impulses` did not answer: selection among the (for e = 0 and
+        redundant contacts) non-unique solutions."""
+        k = q.size // 3
         qn = q[0::3] + A[0::3][:, _tangential_columns(k)] @ np.concatenate([j[1::3], j[2::3]])
         Ann = np.ascontiguousarray(A[0::3, 0::3])
         # a positive definite, well-conditioned A_nn (at most three non-collinear hull
@@ -767,34 +801,6 @@ class RigidBodySolver:
             self.stats.lcp_failures += 1
             if self.mu_s == 0:
                 j[0::3] = np.maximum(zn, 0.0)
-        vpost = A @ j + bvel
-        jt = j.reshape(k, 3)
-        self.stats.record_residuals(cone.friction_residuals(j, A @ j + q, np.full(k, self.mu_s)))
-        # velocity jump: Δu̇_cm = Σ J / m, Δl = Σ r × J
-        Jw = jt @ BASIS  # (k, 3) world impulse vectors
-        self._pred[0] = 0.0
-        s2 = s.copy()
-        s2.v = s.v + Jw.sum(axis=0) / self.body.mass
-        s2.l = s.l + cross(r, Jw).sum(axis=0)
-        w2 = self.omega(s2)
-        self._prev_force[inband] = 0.0
-        self._prev_force[idx] = jt / max(dt, 1e-300)
-        self._active[inband] = 0
-        self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
-        self.stats.lcp_time += time.perf_counter() - t0
-        vmin = float(vn.min())
-        nw, nw2 = float(np.linalg.norm(w)), float(np.linalg.norm(w2))
-        info = {
-            "v_n_min": vmin,
-            "nodes": int(inband.size),
-            "hull_nodes": int(k),
-            "impulse_nodes": int(np.sum(jt[:, 0] > 0)),
-            "omega_before": nw,
-            "omega_after": nw2,
-            "ratio": nw2 / nw if nw > 0 else float("nan"),
-            "v_n_after_min": float(vpost[0::3].min()),
-        }
-        return s2, info
 
     @staticmethod
     def _jacobians(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -46,12 +46,17 @@ import numpy as np
 from numba import njit
 
 __all__ = [
+    "IMPACT_CONE",
+    "IMPACT_DONE",
+    "IMPACT_REVERTED",
+    "IMPACT_SELECT",
     "STEP_GENERAL",
     "STEP_IMPACT",
     "STEP_OK",
     "STEP_REJECTED",
     "active_set_solve",
     "contact_problem",
+    "impact_impulses",
     "impact_pending",
     "kinematics",
     "lcp_unique",
@@ -747,7 +752,10 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
     and the solve is repeated (at most ``max_rounds`` rounds); when no such change is left, a
     sticking contact whose force leaves its cone is put at the cone's boundary (impending
     slip, status 3, friction along its least-squares force) and an impending-slip contact whose
-    acceleration goes with its friction sticks again.
+    acceleration goes with its friction sticks again.  When that fails too and the first
+    answer put a sticking contact's force outside its cone (often with a normal pulling,
+    which the first corrections then free), the rounds are repeated once from the guess
+    "those contacts at the cone's boundary, along their first force".
 
     Impending slip (status 3): the contact does not slide yet (|v_t| ≤ the slip velocity) but
     its static friction is saturated, f_t = μ f_n ŝ, and the tangential acceleration opposes
@@ -765,9 +773,65 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
     -------
     (ok, f (3k,), a (3k,), status (k,) of the answer).
     """
+    ok, f, a, st, first = _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir)
+    if ok:
+        return ok, f, a, st
+    k = status.size
+    guess = status.copy()
+    td = tdir.copy()
+    retry = False
+    for i in range(k):
+        if status[i] == 1 and mu[i] > 0:
+            ft = math.hypot(first[3 * i + 1], first[3 * i + 2])
+            if ft > mu[i] * max(first[3 * i], 0.0) * (1 + 1e-12) and ft > 0:
+                guess[i] = 3
+                td[i, 0] = first[3 * i + 1] / ft
+                td[i, 1] = first[3 * i + 2] / ft
+                retry = True
+    if not retry:
+        return ok, f, a, st
+    ok, f, a, st, _ = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td)
+    return ok, f, a, st
+
+
+@njit(cache=True)
+def _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, tdir):
+    """An impending-slip contact whose normal force is zero within the verification's
+    tolerance (|f_n| ≤ 1e-9 max f_n: a contact that carries nothing) is freed — status 0, no
+    force — when the answer still verifies so (``f``, ``a``, ``st`` updated in place): its
+    friction μ f_n ŝ would otherwise be round-off of either sign."""
+    k = st.size
+    fmax = 0.0
+    for i in range(k):
+        fmax = max(fmax, abs(f[3 * i]))
+    changed = False
+    f2 = f.copy()
+    st2 = st.copy()
+    for i in range(k):
+        if st[i] == 3 and abs(f[3 * i]) <= 1e-9 * fmax:
+            st2[i] = 0
+            f2[3 * i] = 0.0
+            f2[3 * i + 1] = 0.0
+            f2[3 * i + 2] = 0.0
+            changed = True
+    if not changed:
+        return
+    ok, a2 = _check(A, b, f2, st2, mu, cons_tol, tdir)
+    if ok:
+        f[:] = f2
+        a[:] = a2
+        st[:] = st2
+
+
+@njit(cache=True)
+def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir):
+    """The rounds of :func:`active_set_solve` from one guess: (ok, f, a, status, the first
+    answer's forces (3k,))."""
     st = status.copy()
     td = tdir.copy()
     k = st.size
+    first = np.zeros(3 * k)
+    n_answers = 0
     f = np.zeros(3 * k)
     a = b.copy()
     f1 = f.copy()
@@ -801,9 +865,13 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
             if _count_slip(st) > 0:
                 f_try = _slip_directions(A, b, st, mu, td, scale, f_try, 1e-11 * bmax)
             f = f_try
+            if n_answers == 0:
+                first[:] = f
+            n_answers += 1
             ok, a = _check(A, b, f, st, mu, cons_tol, td)
             if ok:
-                return True, f, a, st
+                _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, td)
+                return True, f, a, st, first
             if attempt == 0:
                 a1 = a.copy()
                 f1 = f.copy()
@@ -841,7 +909,7 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
                         changed = True
         if not changed:
             break
-    return False, f, a, st
+    return False, f, a, st, first
 
 
 #: relative tolerance of :func:`lcp_unique`'s check (that of ``pivoting.VERIFY_RTOL``)
@@ -1461,3 +1529,117 @@ def step_block(
                 if dv + _norm3(al) * rest[2] * rest[3] < lim:
                     return i + 1, BLOCK_AT_REST
     return n, STEP_OK
+
+
+# ----------------------------------------------------------------------------- impacts (eq. 3.5)
+#: :func:`impact_impulses` stages: the impulses are complete; the cone's active-set guess failed
+#: (the caller runs the iterative cone solver and the normal LCP); the normal LCP has no unique
+#: solution (the caller selects); complete, with the re-selected normal impulses reverted
+IMPACT_DONE, IMPACT_CONE, IMPACT_SELECT, IMPACT_REVERTED = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s):
+    """The impulses of an eq. 3.5 impact on k hull contacts, when they take the fast path.
+
+    The velocity form of the resting problem: A = G M⁻¹ Gᵀ (3k, 3k) per contact (n, x, y),
+    q = v⁻ + e v_n⁻ on the approaching normals; with μ_s > 0 the impact cone by
+    :func:`active_set_solve` (guess: approaching contacts stick, the others separate;
+    impending slip found by its corrections), then eq. 3.5 on the normal impulses with the
+    tangential ones held fixed, by :func:`lcp_unique` (one solution: no selection to make), and
+    the re-selected normal impulses kept only if every tangential impulse stays in its cone —
+    the arithmetic of :meth:`dynamics.RigidBodySolver.resolve_impacts`, which handles the other
+    stages.
+
+    Parameters
+    ----------
+    R : (3, 3) rotation; inertia_inv : (3, 3) body frame, 1/(kg m²); mass : kg;
+    r : (k, 3) lever arms of the contacts, world frame, m; bvel : (3k,) relative velocities
+    (n, x, y), m/s; e : restitution; mu_s : static friction.
+
+    Returns
+    -------
+    (stage ``IMPACT_*``, A (3k, 3k) m/(N s²)·s, q (3k,) m/s, j (3k,) impulses N s — complete
+    for ``IMPACT_DONE`` / ``IMPACT_REVERTED``, the cone's for ``IMPACT_SELECT``).
+    """
+    k = r.shape[0]
+    n3 = 3 * k
+    gm, _ = _jacobians(r, np.zeros(k, dtype=np.bool_), np.zeros((k, 3)), 0.0)
+    iw = _mmt(_mm(R, inertia_inv), R)
+    H = np.empty((n3, 3))
+    for p in range(n3):
+        for c in range(3):
+            H[p, c] = iw[c, 0] * gm[p, 3] + iw[c, 1] * gm[p, 4] + iw[c, 2] * gm[p, 5]
+    A = np.empty((n3, n3))
+    inv_m = 1.0 / mass
+    for p in range(n3):
+        for q_ in range(n3):
+            A[p, q_] = (gm[p, 0] * gm[q_, 0] + gm[p, 1] * gm[q_, 1] + gm[p, 2] * gm[q_, 2]) * inv_m + (
+                gm[p, 3] * H[q_, 0] + gm[p, 4] * H[q_, 1] + gm[p, 5] * H[q_, 2]
+            )
+    q = bvel.copy()
+    guess = np.zeros(k, dtype=np.int64)
+    for i in range(k):
+        if bvel[3 * i] < 0:
+            q[3 * i] += e * bvel[3 * i]
+            guess[i] = 1
+    j = np.zeros(n3)
+    if mu_s > 0:
+        ok, j, _, _ = active_set_solve(A, q, guess, np.full(k, mu_s), 0.0, k + 2, np.zeros((k, 2)))
+        if not ok:
+            return IMPACT_CONE, A, q, j
+    qn = np.empty(k)
+    Ann = np.empty((k, k))
+    for i in range(k):
+        s = q[3 * i]
+        for c in range(k):
+            s += A[3 * i, 3 * c + 1] * j[3 * c + 1] + A[3 * i, 3 * c + 2] * j[3 * c + 2]
+            Ann[i, c] = A[3 * i, 3 * c]
+        qn[i] = s
+    unique, zn = lcp_unique(Ann, qn)
+    if not unique:
+        return IMPACT_SELECT, A, q, j
+    if mu_s > 0:
+        jt_max = 0.0
+        for i in range(k):
+            jt_max = max(jt_max, math.hypot(j[3 * i + 1], j[3 * i + 2]))
+        for i in range(k):
+            if math.hypot(j[3 * i + 1], j[3 * i + 2]) > mu_s * zn[i] * (1 + 1e-9) + 1e-12 * jt_max:
+                return IMPACT_REVERTED, A, q, j
+    for i in range(k):
+        j[3 * i] = zn[i]
+    return IMPACT_DONE, A, q, j
+
+
+@njit(cache=True)
+def impact_finish(R, inertia_inv, mass, r, A, q, bvel, j, v, lm):
+    """The velocity jump of eq. 3.5 impulses ``j`` (3k,) on the contacts at lever arms ``r``
+    (k, 3) (world frame, m), from the COM velocity ``v`` (3,) m/s and angular momentum ``lm``
+    (3,) kg m²/s: Δu̇_cm = Σ J / m, Δl = Σ r × J (J = (j_x, j_y, j_n) in the world frame).
+
+    Returns (v⁺ (3,), l⁺ (3,), |ω⁺| rad/s, the smallest post-impact normal velocity
+    min (A j + bvel)_n m/s, and w = A j + q (3k,), the velocity-form residual of the impulses).
+    """
+    k = r.shape[0]
+    n3 = 3 * k
+    w = q.copy()
+    vn_min = np.inf
+    for p in range(n3):
+        s = 0.0
+        for c in range(n3):
+            s += A[p, c] * j[c]
+        w[p] += s
+        if p % 3 == 0:
+            vn_min = min(vn_min, s + bvel[p])
+    v2 = v.copy()
+    l2 = lm.copy()
+    for i in range(k):
+        jx, jy, jz = j[3 * i + 1], j[3 * i + 2], j[3 * i]
+        v2[0] += jx / mass
+        v2[1] += jy / mass
+        v2[2] += jz / mass
+        l2[0] += r[i, 1] * jz - r[i, 2] * jy
+        l2[1] += r[i, 2] * jx - r[i, 0] * jz
+        l2[2] += r[i, 0] * jy - r[i, 1] * jx
+    w2 = _omega(R, inertia_inv, l2)
+    return v2, l2, _norm3(w2), vn_min, w
