@@ -464,8 +464,14 @@ class ReferenceEngine(EngineBase):
                     )
                     plan, loads, t_after = load.planned(t, limit)
                     if plan:
-                        done, code, rows, infos, lifts = stepper.step_block(state, plan, loads, rest_prm)
-                        slow_once = code != 0
+                        done, code, rows, infos, lifts, imp_info = stepper.step_block(
+                            state, plan, loads, rest_prm
+                        )
+                        # an impact pending after the block's first step ends it before that
+                        # step; the next block starts with it (and resolves it, if it can)
+                        slow_once = code != 0 and not (code == kernel.STEP_IMPACT and done > 0)
+                        if imp_info is not None:
+                            _record_impact(stepper, rec, t, imp_info)
                         if done:
                             ts = np.array(
                                 [p[0] for p in plan[1:done]]

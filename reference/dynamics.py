@@ -448,6 +448,8 @@ class RigidBodySolver:
             float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300
         )
         self._size = max(float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
+        # impacts resolved inside kernel.step_block (layout kernel.IMP_*)
+        self._imp = np.array([self.e, self.mu_s, 1.0 if self.reduce else 0.0, self._size])
         self._kin_cache: tuple | None = None  # (state, t, node_kinematics(state, t))
         prm = np.zeros(kernel.N_PARAMS)
         prm[kernel.P_MASS] = body.mass
@@ -937,14 +939,16 @@ class RigidBodySolver:
 
     def step_block(
         self, s0: State, steps: list[tuple[float, float]], loads: np.ndarray, rest: np.ndarray
-    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray]:
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None]:
         """:func:`kernel.step_block`: the steps ``steps`` [(t0, Δt), …] from ``s0`` with the
         loads ``loads`` (n, 2, 3) (at t0⁺, t1⁻), as many as need no Python path; inertial
-        ground motion, compiled only. The statistics and the ``last_*`` attributes are
-        updated as :meth:`step` would have after each done step.
+        ground motion, compiled only. An eq. 3.5 impact at the first step is resolved in the
+        kernel when its compiled stages answer; its statistics are counted here and its event
+        data (the ``info`` of :meth:`resolve_impacts`) returned. The statistics of the steps
+        and the ``last_*`` attributes are updated by :meth:`account_block`.
 
         Returns (steps done, exit code, states (done, 18), infos (done, N_INFO), band
-        projections (done,) m).
+        projections (done,) m, the impact's event data or None).
         """
         n = len(steps)
         t0s = np.array([a for a, _ in steps])
@@ -952,6 +956,7 @@ class RigidBodySolver:
         rows_sv = np.empty((n, 18))
         rows_info = np.zeros((n, kernel.N_INFO))
         rows_lift = np.zeros(n)
+        rows_imp = np.zeros((1, kernel.N_IMP))
         gaps = np.empty(self.body.nodes.shape[0])
         cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
         self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
@@ -976,8 +981,37 @@ class RigidBodySolver:
             rows_sv,
             rows_info,
             rows_lift,
+            self._imp,
+            rows_imp,
         )
-        return int(done), int(code), rows_sv[:done], rows_info[:done], rows_lift[:done]
+        info = None
+        if done > 0 and rows_imp[0, kernel.J_FLAG]:
+            info = self._block_impact_info(rows_imp[0])
+        return int(done), int(code), rows_sv[:done], rows_info[:done], rows_lift[:done], info
+
+    def _block_impact_info(self, row: np.ndarray) -> dict[str, Any]:
+        """Statistics and event data of an impact resolved by :func:`kernel.step_block`
+        (its row ``row``, layout ``J_*``), as :meth:`resolve_impacts` records them."""
+        st = self.stats
+        st.signorini_f.append(float(row[kernel.J_SIGF]))
+        st.signorini_a.append(float(row[kernel.J_SIGA]))
+        st.complementarity.append(float(row[kernel.J_COMPL]))
+        st.cone.append(float(row[kernel.J_CONE]))
+        if row[kernel.J_REVERTED]:
+            st.selection_reverted += 1
+        w = row[kernel.J_W0 : kernel.J_W0 + 3].copy()
+        nw = math.sqrt(float(w.dot(w)))
+        nw2 = float(row[kernel.J_W1])
+        return {
+            "v_n_min": float(row[kernel.J_VNMIN]),
+            "nodes": int(row[kernel.J_NODES]),
+            "hull_nodes": int(row[kernel.J_HULL]),
+            "impulse_nodes": int(row[kernel.J_IMPULSE]),
+            "omega_before": nw,
+            "omega_after": nw2,
+            "ratio": nw2 / nw if nw > 0 else float("nan"),
+            "v_n_after_min": float(row[kernel.J_VNAFTER]),
+        }
 
     def account_block(self, info: np.ndarray) -> None:
         """Statistics and ``last_*`` of the steps of :meth:`step_block` (rows ``info``) that

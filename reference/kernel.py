@@ -45,6 +45,8 @@ import math
 import numpy as np
 from numba import njit
 
+from pbr_xval.reference.cone import _residuals as _friction_residuals
+
 __all__ = [
     "IMPACT_CONE",
     "IMPACT_DONE",
@@ -1396,6 +1398,28 @@ BLOCK_NONFINITE = 5
 
 
 @njit(cache=True)
+def _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf):
+    """The candidate nodes of a step from the packed state ``cur`` (those of
+    :meth:`dynamics.RigidBodySolver.candidates`); sets ``prm[P_COS_CAND]``."""
+    if not cull:
+        return allc
+    nn = nodes.shape[0]
+    cz = min(1.0, max(-1.0, cur[14]))
+    lmag = math.sqrt(cur[15] * cur[15] + cur[16] * cur[16] + cur[17] * cur[17])
+    th = math.acos(cz) + 0.02 + 2.0 * dt * lmag * inv_lmin
+    if th >= math.pi:
+        prm[P_COS_CAND] = -2.0
+        return allc
+    m = 0
+    for j in range(nn):
+        if cull_lim[j] <= th:
+            cand_buf[m] = j
+            m += 1
+    prm[P_COS_CAND] = math.cos(th)
+    return cand_buf[:m].copy()
+
+
+@njit(cache=True)
 def step_block(
     sv,
     prm,
@@ -1417,6 +1441,8 @@ def step_block(
     rows_sv,
     rows_info,
     rows_lift,
+    imp,
+    rows_imp,
 ):
     """Consecutive :func:`step` calls of the engine loop in one call (inertial ground motion).
 
@@ -1437,6 +1463,14 @@ def step_block(
     of the engine (|u̇| + |ω| size and the velocity change per step below ``rest[0]``;
     ``rest[2]`` size m, ``rest[3]`` nominal Δt s, ``rest[4]`` mass kg) holding within a
     relative 1e-6 (``BLOCK_AT_REST``: the caller decides).
+
+    An eq. 3.5 impact pending at the first step (``imp`` not empty: restitution, μ_s, hull
+    reduction, size, layout ``IMP_*``) is resolved here when :func:`_block_impact` can (the
+    compiled stages of the impact; its event in ``rows_imp[0]``, layout ``J_*``), and the
+    step is then made from the post-impact state without the trigger, as the engine loop
+    does; if that step needs the Python path, everything is restored and the block returns
+    before it. An impact pending at a later step ends the block before that step (the next
+    block starts with it).
 
     Returns (steps done, exit code); rows i < steps done hold the state after step i
     (``rows_sv``) and the step's info (``rows_info``, layout ``I_*``).
@@ -1461,23 +1495,7 @@ def step_block(
         for c in range(3):
             ext[0, c] = loads[i, 0, c]
             ext[1, c] = loads[i, 1, c]
-        if cull:
-            cz = min(1.0, max(-1.0, cur[14]))
-            lmag = math.sqrt(cur[15] * cur[15] + cur[16] * cur[16] + cur[17] * cur[17])
-            th = math.acos(cz) + 0.02 + 2.0 * dt * lmag * inv_lmin
-            if th >= math.pi:
-                cand = allc
-                prm[P_COS_CAND] = -2.0
-            else:
-                m = 0
-                for j in range(nn):
-                    if cull_lim[j] <= th:
-                        cand_buf[m] = j
-                        m += 1
-                cand = cand_buf[:m].copy()
-                prm[P_COS_CAND] = math.cos(th)
-        else:
-            cand = allc
+        cand = _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
         for a in range(cand.size):
             j = cand[a]
             snap_active[j] = active[j]
@@ -1490,18 +1508,41 @@ def step_block(
         code = step(
             cur, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
         )
+        impact = False
         if code == STEP_IMPACT:
-            return i, code
+            if i > 0 or imp.size == 0:
+                return i, code
+            # the impact at the block's first step: every node's memory saved (the impact
+            # and the step after it may touch nodes outside this step's candidates)
+            full_active = active.copy()
+            full_force = prev_force.copy()
+            post = np.empty(18)
+            if not _block_impact(
+                cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, post, rows_imp[0]
+            ):
+                return i, code
+            impact = True
+            cand = _block_candidates(post, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
+            prm[P_IMPACT] = 0.0
+            code = step(
+                post, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
+            )
+            prm[P_IMPACT] = 1.0
         gmin = info[I_GMIN]
         if code == STEP_GENERAL or (code == STEP_REJECTED and gmin < -eps * (1.0 + band_tol)):
-            for a in range(cand.size):
-                j = cand[a]
-                active[j] = snap_active[j]
-                for c in range(3):
-                    prev_force[j, c] = snap_force[j, c]
+            if impact:
+                active[:] = full_active
+                prev_force[:] = full_force
+                rows_imp[0, J_FLAG] = 0.0
+            else:
+                for a in range(cand.size):
+                    j = cand[a]
+                    active[j] = snap_active[j]
+                    for c in range(3):
+                        prev_force[j, c] = snap_force[j, c]
             pred[:] = snap_pred
             pred_idx[:] = snap_idx
-            return i, code
+            return i, STEP_IMPACT if impact else code
         rows_lift[i] = 0.0
         if gmin < -eps:
             lift = -eps - gmin
@@ -1643,3 +1684,104 @@ def impact_finish(R, inertia_inv, mass, r, A, q, bvel, j, v, lm):
         l2[2] += r[i, 0] * jy - r[i, 1] * jx
     w2 = _omega(R, inertia_inv, l2)
     return v2, l2, _norm3(w2), vn_min, w
+
+
+# ----------------------------------------------------------------------------- impacts in a block
+#: columns of :func:`step_block`'s impact rows (``rows_imp``, one per step): J_FLAG 1 when an
+#: eq. 3.5 impact was resolved at the step's start (then: the smallest approaching normal
+#: velocity of the hull contacts m/s, in-band nodes, hull contacts, contacts with a normal
+#: impulse, ω before (3, rad/s), |ω| after rad/s, the smallest post-impact normal velocity m/s,
+#: the four residuals of :func:`cone.friction_residuals` kept in the statistics, 1 when the
+#: re-selected normal impulses were reverted)
+J_FLAG, J_VNMIN, J_NODES, J_HULL, J_IMPULSE, J_W0, J_W1 = 0, 1, 2, 3, 4, 5, 8
+J_VNAFTER, J_SIGF, J_SIGA, J_COMPL, J_CONE, J_REVERTED = 9, 10, 11, 12, 13, 14
+N_IMP = 15
+# impact parameters of :func:`step_block` (``imp``): restitution, μ_s, support-hull reduction
+# (1/0), the body's size m (the hull's tolerance is 1e-9 of it)
+IMP_E, IMP_MU, IMP_REDUCE, IMP_SIZE = range(4)
+
+
+@njit(cache=True)
+def _block_impact(cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, out_sv, row):
+    """:meth:`dynamics.RigidBodySolver.resolve_impacts` for inertial ground motion (the pedestal
+    is the frame: no displacement or velocity), when :func:`impact_impulses` answers on its
+    compiled stages; the same functions in the same order, so the same numbers. Writes the
+    post-impact state to ``out_sv`` and the event to ``row`` (``J_*``); False (nothing written)
+    when the Python path must answer (the iterative cone solver or the impulse selection)."""
+    eps = prm[P_EPS]
+    zero = np.zeros(3)
+    R = cur[6:15].reshape(3, 3)
+    r_all, gaps, vel, w = _kinematics(
+        cur[0:3],
+        cur[3:6],
+        R,
+        cur[15:18],
+        inertia_inv,
+        nodes,
+        cand,
+        zero,
+        zero,
+        int(prm[P_PED_KIND]),
+        prm[P_HX],
+        prm[P_HY],
+    )
+    n_in = 0
+    for c in range(cand.size):
+        if gaps[cand[c]] <= eps:
+            n_in += 1
+    inband = np.empty(n_in, dtype=np.int64)
+    n_in = 0
+    for c in range(cand.size):
+        if gaps[cand[c]] <= eps:
+            inband[n_in] = cand[c]
+            n_in += 1
+    idx = inband
+    if imp[IMP_REDUCE] > 0 and imp[IMP_E] == 0.0 and idx.size > 3:
+        idx = support_hull(nodes, idx, 1e-9 * imp[IMP_SIZE])
+    k = idx.size
+    r = np.empty((k, 3))
+    bvel = np.empty(3 * k)
+    vn_min = np.inf
+    for a in range(k):
+        for c in range(3):
+            r[a, c] = r_all[idx[a], c]
+            bvel[3 * a + c] = vel[idx[a], c]
+        vn_min = min(vn_min, vel[idx[a], 0])
+    mu_s = imp[IMP_MU]
+    stage, A, q, j = impact_impulses(R, inertia_inv, prm[P_MASS], r, bvel, imp[IMP_E], mu_s)
+    if stage == IMPACT_CONE or stage == IMPACT_SELECT:
+        return False
+    v2, l2, nw2, vn_after, wres = impact_finish(
+        R, inertia_inv, prm[P_MASS], r, A, q, bvel, j, cur[3:6].copy(), cur[15:18].copy()
+    )
+    res6 = _friction_residuals(j, wres, np.full(k, mu_s))
+    out_sv[:] = cur
+    out_sv[3:6] = v2
+    out_sv[15:18] = l2
+    pred[0] = 0.0
+    for a in range(n_in):
+        for c in range(3):
+            prev_force[inband[a], c] = 0.0
+        active[inband[a]] = 0
+    hd = max(dt, 1e-300)
+    n_imp = 0
+    for a in range(k):
+        for c in range(3):
+            prev_force[idx[a], c] = j[3 * a + c] / hd
+        active[idx[a]] = 1 if j[3 * a] > 0 else 0
+        if j[3 * a] > 0:
+            n_imp += 1
+    row[J_FLAG] = 1.0
+    row[J_VNMIN] = vn_min
+    row[J_NODES] = n_in
+    row[J_HULL] = k
+    row[J_IMPULSE] = n_imp
+    row[J_W0 : J_W0 + 3] = w
+    row[J_W1] = nw2
+    row[J_VNAFTER] = vn_after
+    row[J_SIGF] = res6[0]
+    row[J_SIGA] = res6[1]
+    row[J_COMPL] = res6[2]
+    row[J_CONE] = res6[3]
+    row[J_REVERTED] = 1.0 if stage == IMPACT_REVERTED else 0.0
+    return True

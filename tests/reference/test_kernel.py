@@ -149,7 +149,7 @@ def test_active_set_sticking_with_spin_is_least_squares() -> None:
 
 
 # ----------------------------------------------------------------------------- whole runs
-def _housner(amplitude: float, duration: float):
+def _housner(amplitude: float, duration: float, azimuth_deg: float = 0.0):
     return compile_scene(
         conf.housner_scenario(
             duration=duration,
@@ -158,6 +158,7 @@ def _housner(amplitude: float, duration: float):
                 "amplitude": amplitude,
                 "frequency": 1.0,
                 "phase": "housner_uplift",
+                "azimuth_deg": azimuth_deg,
             },
         )
     )
@@ -249,20 +250,32 @@ _TIMING = ("wall_s", "cpu_s", "wall_per_simulated_s", "lcp_time_fraction", "lcp_
 
 
 @pytest.mark.parametrize(
-    ("amplitude", "duration", "settings"),
+    ("amplitude", "duration", "settings", "azimuth"),
     [
-        (5.0, 5.0, {}),  # rocks, impacts, settles: held at rest
-        (7.0, 3.0, {}),  # topples: the recorder stops the run inside a block
-        (5.6, 2.0, {"nodes": "grid", "max_nodes": 64}),  # culled candidate nodes
+        (5.0, 5.0, {}, 0.0),  # rocks, impacts, settles: held at rest
+        (7.0, 3.0, {}, 0.0),  # topples: the recorder stops the run inside a block
+        (5.6, 2.0, {"nodes": "grid", "max_nodes": 64}, 0.0),  # culled candidate nodes
+        (5.0, 5.0, {}, 45.0),  # rocks on a corner: impacts on three corners, resolved in blocks
     ],
 )
-def test_step_block_equals_step_by_step(monkeypatch, amplitude, duration, settings) -> None:
+def test_step_block_equals_step_by_step(monkeypatch, amplitude, duration, settings, azimuth) -> None:
     """kernel.step_block (engine.BLOCK_STEPS > 0) gives the step-by-step loop's run bit for
-    bit: samples, events and every diagnostic but the timings."""
+    bit: samples, events and every diagnostic but the timings — also when the blocks resolve
+    impacts themselves (kernel._block_impact; counted)."""
     from pbr_xval.reference import adapter as ref_engine
+    from pbr_xval.reference import dynamics
 
-    scene = _housner(amplitude, duration)
+    in_block = []
+    info = dynamics.RigidBodySolver._block_impact_info
+    monkeypatch.setattr(
+        dynamics.RigidBodySolver,
+        "_block_impact_info",
+        lambda self, row: in_block.append(1) or info(self, row),
+    )
+    scene = _housner(amplitude, duration, azimuth)
     blocked = run_scene(scene, "reference", settings)
+    if azimuth:
+        assert len(in_block) >= 4
     monkeypatch.setattr(ref_engine, "BLOCK_STEPS", 0)
     single = run_scene(scene, "reference", settings)
     assert blocked.status == single.status
