@@ -449,7 +449,8 @@ class RigidBodySolver:
         )
         self._size = max(float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
         # impacts resolved inside kernel.step_block (layout kernel.IMP_*)
-        self._imp = np.array([self.e, self.mu_s, 1.0 if self.reduce else 0.0, self._size])
+        closest = 1.0 if self.selection == "closest_to_previous" else 0.0
+        self._imp = np.array([self.e, self.mu_s, 1.0 if self.reduce else 0.0, self._size, closest])
         self._kin_cache: tuple | None = None  # (state, t, node_kinematics(state, t))
         prm = np.zeros(kernel.N_PARAMS)
         prm[kernel.P_MASS] = body.mass
@@ -724,8 +725,9 @@ class RigidBodySolver:
         # guess "approaching contacts stick, the others separate" (impending slip found by its
         # corrections), verified; eq. 3.5 on the normal impulses, tangential impulses held
         # fixed, when its solution is unique (compiled; the other stages below)
+        ref = prev[0::3].copy() if self.selection == "closest_to_previous" else np.zeros(k)
         stage, A, q, j = kernel.impact_impulses(
-            s.R, self.body.inertia_inv, self.body.mass, np.ascontiguousarray(r), bvel, self.e, self.mu_s
+            s.R, self.body.inertia_inv, self.body.mass, np.ascontiguousarray(r), bvel, self.e, self.mu_s, ref
         )
         if stage == kernel.IMPACT_CONE:
             # the iterative cone solver

@@ -61,6 +61,7 @@ __all__ = [
     "impact_impulses",
     "impact_pending",
     "kinematics",
+    "lcp_select",
     "lcp_unique",
     "step",
     "step_block",
@@ -1025,6 +1026,189 @@ def lcp_unique(M, q):
     return False, z
 
 
+#: :func:`lcp_select` tolerances (those of ``selection.solve_lcp_min_norm``): the support set
+#: w*_i ≤ SELECT_SUPPORT_RTOL × scale, the null space below SELECT_RANK_RTOL of the largest
+#: column norm
+SELECT_SUPPORT_RTOL = 1e-9
+SELECT_RANK_RTOL = 1e-10
+
+
+@njit(cache=True)
+def _minnorm_solve(sub, rhs):
+    """Minimum-norm least-squares solution x = sub⁺ rhs of a small square system (the
+    orthonormal-basis construction of :func:`_clamped_solve`); ok flag."""
+    n = rhs.size
+    x = np.zeros(n)
+    qc = _basis(sub, 1e-10)
+    qr = _basis(sub.T.copy(), 1e-10)
+    r = qc.shape[1]
+    if qr.shape[1] != r:
+        return x, False
+    if r == 0:
+        return x, True
+    K = np.zeros((r, r))
+    g = np.zeros(r)
+    for c1 in range(r):
+        for p in range(n):
+            g[c1] += qc[p, c1] * rhs[p]
+            for c2 in range(r):
+                s = 0.0
+                for q_ in range(n):
+                    s += sub[p, q_] * qr[q_, c2]
+                K[c1, c2] += qc[p, c1] * s
+    y, ok = _lu_solve(K, g)
+    if not ok:
+        return x, False
+    for p in range(n):
+        for c in range(r):
+            x[p] += qr[p, c] * y[c]
+    return x, True
+
+
+@njit(cache=True)
+def lcp_select(M, q, ref):
+    """The solution of the LCP w = M z + q ≥ 0, z ≥ 0, zᵀw = 0 (M symmetric PSD, small,
+    singular) closest to ``ref`` — ``selection.solve_lcp_min_norm``'s answer — when the
+    solution set is a segment (a one-dimensional null space on the support, e.g. four
+    coplanar contacts of a flat landing): (ok, z).
+
+    A first solution z₀ by enumerating the principal subsets (minimum-norm least-squares
+    solves, :func:`_minnorm_solve`; for PSD M every solution has the same w*); the solution
+    set is {z ≥ 0 : z_i = 0 off S = {w*_i = 0}, M[:, S] z_S = w* − q} = z₀ + n y on S
+    (n spanning null(M[:, S])), and the closest point to ``ref`` is y* = n·(ref − z₀) clipped
+    to the interval where z₀ + n y ≥ 0. ``ok`` is False (the caller selects in Python) when
+    n > ``UNIQUE_MAX_N``, no subset passes, or the null space is not one-dimensional."""
+    n = q.size
+    z = np.zeros(n)
+    if n == 0 or n > UNIQUE_MAX_N:
+        return False, z
+    mmax = 0.0
+    qmax = 0.0
+    for i in range(n):
+        qmax = max(qmax, abs(q[i]))
+        for j in range(n):
+            mmax = max(mmax, abs(M[i, j]))
+    idx = np.empty(n, dtype=np.int64)
+    found = False
+    for mask in range(1 << n):
+        m = 0
+        for i in range(n):
+            if mask >> i & 1:
+                idx[m] = i
+                m += 1
+        zt = np.zeros(n)
+        if m > 0:
+            sub = np.empty((m, m))
+            rhs = np.empty(m)
+            for a in range(m):
+                rhs[a] = -q[idx[a]]
+                for b in range(m):
+                    sub[a, b] = M[idx[a], idx[b]]
+            x, solved = _minnorm_solve(sub, rhs)
+            if not solved:
+                continue
+            for a in range(m):
+                zt[idx[a]] = x[a]
+        zmax = 0.0
+        for i in range(n):
+            zmax = max(zmax, abs(zt[i]))
+        tol = UNIQUE_RTOL * max(1e-300, qmax, mmax * zmax)
+        good = True
+        for i in range(n):
+            if zt[i] < -tol:
+                good = False
+                break
+        if not good:
+            continue
+        for i in range(n):
+            w = q[i]
+            for j in range(n):
+                w += M[i, j] * zt[j]
+            # clamped rows: w = 0 (the subset's system must be consistent); free rows: w ≥ 0
+            if (mask >> i & 1 and abs(w) > tol) or w < -tol:
+                good = False
+                break
+        if good:
+            for i in range(n):
+                z[i] = max(zt[i], 0.0)
+            found = True
+            break
+    if not found:
+        return False, z
+    # the support S of w* and the null space of M[:, S]
+    zmax = 0.0
+    for i in range(n):
+        zmax = max(zmax, abs(z[i]))
+    wstar = q.copy()
+    for i in range(n):
+        for j in range(n):
+            wstar[i] += M[i, j] * z[j]
+    sup = np.empty(n, dtype=np.int64)
+    ns = 0
+    for i in range(n):
+        if wstar[i] <= SELECT_SUPPORT_RTOL * max(qmax, mmax * zmax, 1e-300):
+            sup[ns] = i
+            ns += 1
+    if ns == 0:
+        return True, z
+    ms_t = np.empty((ns, n))  # M[:, S]ᵀ
+    for a in range(ns):
+        for i in range(n):
+            ms_t[a, i] = M[i, sup[a]]
+    rowb = _basis(ms_t, SELECT_RANK_RTOL)  # (ns, rank): the row space of M[:, S]
+    d = ns - rowb.shape[1]
+    if d == 0:
+        return True, z
+    if d != 1:
+        return False, z
+    # the null direction: the unit vector of R^ns orthogonal to the row space (Gram–Schmidt
+    # of the identity column that keeps the most after projecting the basis out)
+    best = -1.0
+    nv = np.zeros(ns)
+    for c in range(ns):
+        e = np.zeros(ns)
+        e[c] = 1.0
+        for b in range(rowb.shape[1]):
+            dd = rowb[c, b]
+            for a in range(ns):
+                e[a] -= dd * rowb[a, b]
+        nn = 0.0
+        for a in range(ns):
+            nn += e[a] * e[a]
+        if nn > best:
+            best = nn
+            nv = e / math.sqrt(nn)
+    y = 0.0
+    for a in range(ns):
+        y += nv[a] * (ref[sup[a]] - z[sup[a]])
+    lo, hi = -np.inf, np.inf
+    for a in range(ns):
+        if nv[a] > 0:
+            lo = max(lo, -z[sup[a]] / nv[a])
+        elif nv[a] < 0:
+            hi = min(hi, -z[sup[a]] / nv[a])
+    y = min(max(y, lo), hi)
+    zs = z.copy()
+    for a in range(ns):
+        zs[sup[a]] = z[sup[a]] + nv[a] * y
+    # feasibility, as the Python selection checks it
+    zmax2 = 0.0
+    for i in range(n):
+        zmax2 = max(zmax2, abs(zs[i]))
+    vt = UNIQUE_RTOL * max(1e-300, qmax, mmax * zmax2)
+    for i in range(n):
+        if zs[i] < -vt:
+            return False, z
+        w = q[i]
+        for j in range(n):
+            w += M[i, j] * zs[j]
+        if abs(w - wstar[i]) > 1e3 * vt:
+            return False, z
+    for i in range(n):
+        z[i] = max(zs[i], 0.0)
+    return True, z
+
+
 # ----------------------------------------------------------------------------- one step
 @njit(cache=True)
 def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
@@ -1580,15 +1764,16 @@ IMPACT_DONE, IMPACT_CONE, IMPACT_SELECT, IMPACT_REVERTED = 0, 1, 2, 3
 
 
 @njit(cache=True)
-def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s):
+def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
     """The impulses of an eq. 3.5 impact on k hull contacts, when they take the fast path.
 
     The velocity form of the resting problem: A = G M⁻¹ Gᵀ (3k, 3k) per contact (n, x, y),
     q = v⁻ + e v_n⁻ on the approaching normals; with μ_s > 0 the impact cone by
     :func:`active_set_solve` (guess: approaching contacts stick, the others separate;
     impending slip found by its corrections), then eq. 3.5 on the normal impulses with the
-    tangential ones held fixed, by :func:`lcp_unique` (one solution: no selection to make), and
-    the re-selected normal impulses kept only if every tangential impulse stays in its cone —
+    tangential ones held fixed, by :func:`lcp_unique` (one solution: no selection to make) or,
+    for a singular A_nn, :func:`lcp_select` (the solution closest to ``ref``), and the
+    re-selected normal impulses kept only if every tangential impulse stays in its cone —
     the arithmetic of :meth:`dynamics.RigidBodySolver.resolve_impacts`, which handles the other
     stages.
 
@@ -1639,7 +1824,11 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s):
         qn[i] = s
     unique, zn = lcp_unique(Ann, qn)
     if not unique:
-        return IMPACT_SELECT, A, q, j
+        # a singular A_nn (a flat landing): the solution closest to ``ref``, when the solution
+        # set is a segment
+        unique, zn = lcp_select(Ann, qn, ref)
+        if not unique:
+            return IMPACT_SELECT, A, q, j
     if mu_s > 0:
         jt_max = 0.0
         for i in range(k):
@@ -1697,8 +1886,9 @@ J_FLAG, J_VNMIN, J_NODES, J_HULL, J_IMPULSE, J_W0, J_W1 = 0, 1, 2, 3, 4, 5, 8
 J_VNAFTER, J_SIGF, J_SIGA, J_COMPL, J_CONE, J_REVERTED = 9, 10, 11, 12, 13, 14
 N_IMP = 15
 # impact parameters of :func:`step_block` (``imp``): restitution, μ_s, support-hull reduction
-# (1/0), the body's size m (the hull's tolerance is 1e-9 of it)
-IMP_E, IMP_MU, IMP_REDUCE, IMP_SIZE = range(4)
+# (1/0), the body's size m (the hull's tolerance is 1e-9 of it), 1 when the impulse selection is
+# "closest_to_previous" (0: minimum norm)
+IMP_E, IMP_MU, IMP_REDUCE, IMP_SIZE, IMP_CLOSEST = range(5)
 
 
 @njit(cache=True)
@@ -1748,7 +1938,11 @@ def _block_impact(cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, p
             bvel[3 * a + c] = vel[idx[a], c]
         vn_min = min(vn_min, vel[idx[a], 0])
     mu_s = imp[IMP_MU]
-    stage, A, q, j = impact_impulses(R, inertia_inv, prm[P_MASS], r, bvel, imp[IMP_E], mu_s)
+    ref = np.zeros(k)
+    if imp[IMP_CLOSEST] > 0:
+        for a in range(k):
+            ref[a] = prev_force[idx[a], 0] * dt
+    stage, A, q, j = impact_impulses(R, inertia_inv, prm[P_MASS], r, bvel, imp[IMP_E], mu_s, ref)
     if stage == IMPACT_CONE or stage == IMPACT_SELECT:
         return False
     v2, l2, nw2, vn_after, wres = impact_finish(

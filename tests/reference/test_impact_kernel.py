@@ -52,7 +52,7 @@ def _problem(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
 def test_impact_impulses_agree_with_cone_solver_and_dantzig(seed: int, mu: float) -> None:
     R, r, _, _, bvel = _problem(seed)
     k = r.shape[0]
-    stage, A, q, j = kernel.impact_impulses(R, INERTIA_INV, MASS, r, bvel, 0.0, mu)
+    stage, A, q, j = kernel.impact_impulses(R, INERTIA_INV, MASS, r, bvel, 0.0, mu, np.zeros(r.shape[0]))
     # A = G M⁻¹ Gᵀ written with NumPy
     G = np.zeros((3 * k, 6))
     for i in range(k):
@@ -93,7 +93,7 @@ def test_sliding_landing_takes_the_compiled_path() -> None:
     R = np.eye(3)
     r = CORNERS[:1].copy()
     bvel = np.array([-0.1, 1.0, 0.0])
-    stage, A, q, j = kernel.impact_impulses(R, INERTIA_INV, MASS, r, bvel, 0.0, 0.2)
+    stage, A, q, j = kernel.impact_impulses(R, INERTIA_INV, MASS, r, bvel, 0.0, 0.2, np.zeros(1))
     assert stage == kernel.IMPACT_DONE
     assert np.hypot(j[1], j[2]) == pytest.approx(0.2 * j[0], rel=1e-12)
     vpost = A @ j + bvel
@@ -122,3 +122,37 @@ def test_impact_finish_is_the_impulse_law(seed: int) -> None:
     assert nw2 == pytest.approx(np.linalg.norm(R @ INERTIA_INV @ R.T @ l2), rel=1e-13)
     assert vn_min == pytest.approx((A @ j + bvel)[0::3].min(), rel=1e-13)
     np.testing.assert_allclose(w, A @ j + q, rtol=1e-13, atol=1e-14)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_lcp_select_is_the_closest_solution(seed: int) -> None:
+    """A flat landing on four coplanar corners (A_nn of rank 3: the solutions form a segment):
+    ``kernel.lcp_select`` returns ``selection.solve_lcp_min_norm``'s answer — the solution
+    closest to the reference (random, or zero: the minimum-norm one), found there by pivoting,
+    an SVD null space and a projection LCP."""
+    from pbr_xval.reference import selection
+
+    rng = np.random.default_rng(seed)
+    R = _rot(rng, 0.02)
+    r = CORNERS @ R.T
+    v = np.array([0.0, 0.0, -0.1]) + rng.normal(size=3) * 0.02
+    w = rng.normal(size=3) * 0.05
+    vel = v + np.cross(w, r)
+    G = np.zeros((4, 6))
+    for i in range(4):
+        G[i, 2] = 1.0
+        G[i, 3:] = np.cross(r[i], [0.0, 0.0, 1.0])
+    Minv = np.zeros((6, 6))
+    Minv[:3, :3] = np.eye(3) / MASS
+    Minv[3:, 3:] = R @ INERTIA_INV @ R.T
+    M = G @ Minv @ G.T
+    q = vel[:, 2].copy()
+    ref = np.zeros(4) if seed % 3 == 0 else rng.uniform(0, 30, 4)
+    ok, z = kernel.lcp_select(M, q, ref)
+    want = selection.solve_lcp_min_norm(M, q, reference=None if seed % 3 == 0 else ref)
+    assert want.ok
+    assert ok
+    np.testing.assert_allclose(z, want.z, rtol=0, atol=1e-9 * np.abs(want.z).max())
+    wz = M @ z + q
+    assert z.min() >= 0 and wz.min() >= -1e-9 * np.abs(q).max()
+    assert abs(z @ wz) <= 1e-9 * np.abs(q).max() * np.abs(z).max()
