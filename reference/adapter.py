@@ -141,7 +141,8 @@ class _StepLoad:
         self.many = many
         self.plan: Any = None  # (t, n) -> [(t0, Δt), ...]
         self._starts: dict[float, int] = {}  # planned step start -> its index in the plan
-        self._table: dict[float, np.ndarray] = {}
+        self._table: dict[float, np.ndarray] | None = {}
+        self._times: list[float] = []
         self._steps: list[tuple[float, float]] = []
         self._vals = np.zeros((0, 3))
         self._end = math.nan  # the last planned start (where the next plan continues)
@@ -163,7 +164,9 @@ class _StepLoad:
         self._end = steps[-1][0] if steps else math.nan
         self._steps = steps
         self._vals = np.ascontiguousarray(np.asarray(vals, dtype=float).reshape(-1, 3))
-        self._table = dict(zip(times, vals, strict=True))
+        # the time -> load table of __call__ (the step-by-step path) is built when first asked
+        self._times = times
+        self._table = None
 
     def planned(self, t: float, limit: int) -> tuple[list[tuple[float, float]], np.ndarray, float]:
         """After :meth:`at_step` (t): the planned steps [(t0, Δt), …] from t (at most
@@ -177,6 +180,8 @@ class _StepLoad:
         return self._steps[i0:i1], loads, self._steps[i1][0]
 
     def __call__(self, t: float) -> np.ndarray:
+        if self._table is None:
+            self._table = dict(zip(self._times, self._vals, strict=True))
         v = self._table.get(t)
         return self.direct(t) if v is None else v
 
