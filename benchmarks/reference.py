@@ -17,8 +17,9 @@ Figures, each printed next to its goal as a ratio (value / goal; ≤ 1 meets it)
    (the scanned specimen of ``examples/validation/sp1.toml``, 875 contact nodes) under a 1 Hz
    one-sine pulse of 1.3 m/s², where it stands (10 s run; needs ``../shared/data``). Goal ≤ 2
    each (measured 3.6× and 3.0× when the issue was filed, after warm-up; 4.38× and 18.3× before
-   the compiled time loop of issue 23's second pass, 3.1× and 11.8× after it — see
-   ``reference/PERFORMANCE.md``). Per shake-table test: ``benchmarks/reference_campaign.py``.
+   the compiled time loop of issue 23's second pass, 3.1× and 11.8× after it, 1.9× and 6.0×
+   after its third pass — see ``reference/PERFORMANCE.md``). Per shake-table test:
+   ``benchmarks/reference_campaign.py``.
 
 Run:  python benchmarks/reference.py [--no-cold] [--quick]
 (single-threaded BLAS is forced; the machine's load average is printed at start and end —

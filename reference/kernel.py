@@ -21,8 +21,12 @@ What is not
     ``STEP_OK``; ``STEP_REJECTED`` (a node ended deeper than ε: step back);
     ``STEP_GENERAL`` (an active-set guess failed its verification: the caller repeats the
     step with the general NumPy path, which has the iterative cone solver and the
-    pyramid-LCP fallback of :mod:`pbr_xval.reference.cone`).  Impacts (eq. 3.5) are
-    resolved in :mod:`pbr_xval.reference.dynamics` (they are rare: a few per second).
+    pyramid-LCP fallback of :mod:`pbr_xval.reference.cone`).  Impacts (eq. 3.5):
+    :func:`impact_impulses` and :func:`impact_finish` compute them when the impact cone's
+    active-set guess verifies and the normal LCP has one solution (:func:`lcp_unique`) or a
+    segment of solutions (:func:`lcp_select`) — inside :func:`step_block` at a block's first
+    step, or for :meth:`dynamics.RigidBodySolver.resolve_impacts`, which has the iterative cone
+    solver and the general impulse selection for the other cases.
 
 Structure used
     The Delassus operator of one rigid body, A = G_m M⁻¹ G_fᵀ (G: 3k × 6 contact
