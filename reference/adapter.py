@@ -186,6 +186,50 @@ class _StepLoad:
         return self.direct(t) if v is None else v
 
 
+def compiled_excitation(exc: Any, g: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """The excitation as :func:`kernel.excitation_load` evaluates it: (layout ``EXC_*``,
+    samples), or None when a component is not a record or a sine pulse (the load table
+    then stays in Python).
+
+    ``exc``: an ``Excitation3D`` whose components are ``Record``, ``HalfSine`` or
+    ``OneSine``, each possibly a ``ScaledMotion``; ``g``: gravity, m/s².
+    """
+    from pbr_xval.motion.base import Excitation3D, ScaledMotion
+    from pbr_xval.motion.pulses import HalfSine, OneSine
+    from pbr_xval.motion.records import Record
+
+    from . import kernel
+
+    if type(exc) is not Excitation3D:
+        return None
+    spec = np.zeros(kernel.EXC_SIZE)
+    spec[0] = g
+    spec[1:3] = exc._dir
+    data: list[np.ndarray] = []
+    off = 0
+    for i, comp in enumerate((exc.horizontal, exc.vertical)):
+        k0 = 3 + i * kernel.EXC_COMP
+        if comp is None:
+            continue
+        factor = 1.0
+        if type(comp) is ScaledMotion:
+            factor, comp = comp.factor, comp.base
+        spec[k0 + 1] = factor
+        if type(comp) is Record:
+            n = comp.npts
+            spec[k0] = kernel.EXC_RECORD
+            spec[k0 + 2 : k0 + 7] = (comp.t0, comp.dt, n, comp.duration, off)
+            data += [np.asarray(comp._acc, dtype=float), np.asarray(comp._da, dtype=float), np.zeros(1)]
+            off += 2 * n
+        elif isinstance(comp, HalfSine | OneSine) and type(comp) in (HalfSine, OneSine):
+            spec[k0] = kernel.EXC_SINE
+            phase = comp.phase if isinstance(comp, HalfSine) else 0.0
+            spec[k0 + 2 : k0 + 6] = (comp.amplitude, comp.omega, phase, comp._T)
+        else:
+            return None
+    return spec, (np.ascontiguousarray(np.concatenate(data)) if data else np.zeros(1))
+
+
 def _record_impact(stepper: Any, rec: Any, t: float, info: dict[str, Any]) -> None:
     """Count a resolved impact (``info`` of ``resolve_impacts``) and record its event."""
     stepper.stats.impacts += 1
@@ -203,6 +247,12 @@ BUDGET_CHECK_STEPS = 256
 #: bit for bit; 0: step by step). An implementation constant, not a setting: it changes no
 #: result, only the cost (reference/PERFORMANCE.md)
 BLOCK_STEPS = 256
+
+#: evaluate the excitation (records, sine pulses) inside :func:`kernel.step_block`, so that
+#: step-backs stay in the compiled blocks (the same numbers as the load table; False: the
+#: Python load table plans the blocks' loads and every step-back leaves the blocks). An
+#: implementation switch, not a setting: it changes no result, only the cost
+COMPILED_EXCITATION = True
 
 _WARM = False
 
@@ -438,6 +488,8 @@ class ReferenceEngine(EngineBase):
                 and pedestal.kinematics is None
             )
             rest_prm = np.array([rest_v, t_exc_end, size, dt_nom, float(body.mass)])
+            own = compiled_excitation(exc, g) if blocks and COMPILED_EXCITATION else None
+            bps_arr = np.array(bps, dtype=float)
             slow_once = False
             while not stop and t < duration - 1e-12 * dt_nom:
                 n_check += 1
@@ -456,7 +508,7 @@ class ReferenceEngine(EngineBase):
                     bp_i += 1
                 t_next_bp = bps[bp_i] if bp_i < len(bps) else duration
                 h = min(dt_nom, t_next_bp - t)
-                if isinstance(load, _StepLoad):
+                if isinstance(load, _StepLoad) and own is None:
                     load.at_step(t)
                 if blocks and not slow_once:
                     # the compiled many-step path: the planned steps that need no Python
@@ -467,21 +519,37 @@ class ReferenceEngine(EngineBase):
                     limit = (
                         BLOCK_STEPS if budget <= 0 else max(1, min(BLOCK_STEPS, BUDGET_CHECK_STEPS - n_check))
                     )
-                    plan, loads, t_after = load.planned(t, limit)
-                    if plan:
-                        done, code, rows, infos, lifts, imp_info = stepper.step_block(
-                            state, plan, loads, rest_prm
+                    if own is not None:
+                        # the kernel evaluates the excitation: its own time grid, step-backs
+                        # included (the rejected attempts are rows too, not accepted)
+                        grid = np.array([t, dt_nom, duration, max_back, min_dt, limit])
+                        done, code, rows, infos, lifts, trows, accepted, imp_info = stepper.step_block_own(
+                            state, own, grid, bps_arr, rest_prm
                         )
+                        plan = [(t, 0.0)]
+                    else:
+                        plan, loads, t_after = load.planned(t, limit)
+                        if plan:
+                            done, code, rows, infos, lifts, imp_info = stepper.step_block(
+                                state, plan, loads, rest_prm
+                            )
+                    if plan:
                         # an impact pending after the block's first step ends it before that
                         # step; the next block starts with it (and resolves it, if it can)
                         slow_once = code != 0 and not (code == kernel.STEP_IMPACT and done > 0)
                         if imp_info is not None:
                             _record_impact(stepper, rec, t, imp_info)
                         if done:
-                            ts = np.array(
-                                [p[0] for p in plan[1:done]]
-                                + [plan[done][0] if done < len(plan) else t_after]
-                            )
+                            if own is not None:
+                                kept = np.flatnonzero(accepted)
+                                ts = trows[kept]
+                                rows, lifts, all_infos = rows[kept], lifts[kept], infos
+                                infos = infos[kept]
+                            else:
+                                ts = np.array(
+                                    [p[0] for p in plan[1:done]]
+                                    + [plan[done][0] if done < len(plan) else t_after]
+                                )
                             pens = np.maximum(0.0, -infos[:, kernel.I_GMIN])
                             ncons = infos[:, kernel.I_NCONT].astype(np.int64)
                             stop, used = rec.record_block(
@@ -493,7 +561,14 @@ class ReferenceEngine(EngineBase):
                                 pens,
                             )
                             n_check += used - 1
-                            stepper.account_block(infos[:used])
+                            if own is not None:
+                                # the rejected attempts before the last kept step count as
+                                # the step-by-step loop counts them
+                                raw_end = int(kept[used - 1]) + 1
+                                stepper.account_block(all_infos[:raw_end])
+                                stepper.stats.stepbacks += raw_end - used
+                            else:
+                                stepper.account_block(infos[:used])
                             stepper.stats.steps += used
                             contacts_max = max(contacts_max, int(ncons[:used].max()))
                             stepper.stats.max_penetration = max(
@@ -505,7 +580,7 @@ class ReferenceEngine(EngineBase):
                                 band_lift_max = max(band_lift_max, float(lifted.max()))
                             state = State.from_buf(rows[used - 1].copy())
                             t = float(ts[used - 1])
-                            if not stop and used == done and code == kernel.BLOCK_AT_REST:
+                            if not stop and used == ts.size and code == kernel.BLOCK_AT_REST:
                                 n_cont = int(ncons[used - 1])
                                 pen = float(pens[used - 1])
                                 if self._at_rest(stepper, state, size, dt_nom, rest_v):

@@ -112,6 +112,10 @@ BASIS = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
 #: step would be rejected again — the step-back cascade. The engine then projects the rock
 #: back onto the band (``ReferenceEngine``: ``band_projections`` in the diagnostics).
 BAND_TOLERANCE = 1e-3
+
+# empty arguments of kernel.step_block for the mode not used
+_NO_EXC = np.zeros(0)
+_NO_LOADS = np.zeros((0, 2, 3))
 #: after a general resting solve, a sticking contact whose friction is within this fraction of
 #: the static cone's radius is guessed as impending slip (status 3) by the next active-set solve
 #: (a guess only, verified there; the 16-facet pyramid fallback reaches 98 % of the radius)
@@ -985,11 +989,89 @@ class RigidBodySolver:
             rows_lift,
             self._imp,
             rows_imp,
+            _NO_EXC,
+            _NO_EXC,
+            _NO_EXC,
+            _NO_EXC,
+            np.zeros(n),
+            np.zeros(n),
         )
         info = None
         if done > 0 and rows_imp[0, kernel.J_FLAG]:
             info = self._block_impact_info(rows_imp[0])
         return int(done), int(code), rows_sv[:done], rows_info[:done], rows_lift[:done], info
+
+    def step_block_own(
+        self,
+        s0: State,
+        exc: tuple[np.ndarray, np.ndarray],
+        grid: np.ndarray,
+        bps: np.ndarray,
+        rest: np.ndarray,
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None]:
+        """:func:`kernel.step_block` with the excitation evaluated in the kernel: the steps
+        from ``grid[0]`` (s) on the engine's time grid (``grid``: start, nominal Δt, duration,
+        step-back limit, minimum Δt, at most this many accepted steps; ``bps`` the
+        breakpoints, s), with the step-backs made in the kernel. ``exc`` is
+        ``adapter.compiled_excitation``'s (layout, samples).
+
+        Returns (rows done, exit code, states (done, 18), infos (done, N_INFO), band
+        projections (done,) m, times after the steps (done,) s, accepted (done,) bool — the
+        rejected attempts of step-backs are rows too — and the impact's event data or None).
+        """
+        cap = 2 * int(grid[5]) + int(grid[3]) + 1
+        rows_sv = np.empty((cap, 18))
+        rows_info = np.zeros((cap, kernel.N_INFO))
+        rows_lift = np.zeros(cap)
+        rows_t = np.zeros(cap)
+        rows_acc = np.zeros(cap)
+        rows_imp = np.zeros((1, kernel.N_IMP))
+        gaps = np.empty(self.body.nodes.shape[0])
+        cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
+        self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
+        done, code = kernel.step_block(
+            s0.buf,
+            self._prm,
+            _NO_LOADS,
+            _NO_EXC,
+            _NO_EXC,
+            self.body.inertia_inv,
+            self.body.nodes,
+            self._cull,
+            cull_lim,
+            self._inv_lmin,
+            BAND_TOLERANCE,
+            rest,
+            self._active,
+            self._prev_force,
+            self._pred,
+            self._pred_idx,
+            gaps,
+            rows_sv,
+            rows_info,
+            rows_lift,
+            self._imp,
+            rows_imp,
+            exc[0],
+            exc[1],
+            grid,
+            bps,
+            rows_t,
+            rows_acc,
+        )
+        info = None
+        if done > 0 and rows_imp[0, kernel.J_FLAG]:
+            info = self._block_impact_info(rows_imp[0])
+        return (
+            int(done),
+            int(code),
+            rows_sv[:done],
+            rows_info[:done],
+            rows_lift[:done],
+            rows_t[:done],
+            rows_acc[:done] != 0,
+            info,
+        )
 
     def _block_impact_info(self, row: np.ndarray) -> dict[str, Any]:
         """Statistics and event data of an impact resolved by :func:`kernel.step_block`

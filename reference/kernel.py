@@ -1584,6 +1584,57 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
 BLOCK_AT_REST = 4
 BLOCK_NONFINITE = 5
 
+#: :func:`excitation_load` component kinds: none, a record (piecewise-linear samples),
+#: a sine pulse A sin(ω τ + φ) on [0, T)
+EXC_NONE, EXC_RECORD, EXC_SINE = 0, 1, 2
+#: floats per component in the excitation layout (kind, factor, six parameters)
+EXC_COMP = 8
+#: excitation layout: g (m/s²), the horizontal direction (cos az, sin az), then the horizontal
+#: and the vertical component (``EXC_COMP`` floats each)
+EXC_SIZE = 3 + 2 * EXC_COMP
+
+
+@njit(cache=True)
+def _component_acc(exc, k0, data, t):
+    """Ground acceleration (m/s²) of one component at t (s), the arithmetic of
+    ``motion.Record._acceleration`` / ``motion.pulses._Pulse._acceleration`` times the
+    ``ScaledMotion`` factor, operation for operation (the same IEEE results)."""
+    kind = int(exc[k0])
+    if kind == EXC_NONE:
+        return 0.0
+    factor = exc[k0 + 1]
+    if kind == EXC_RECORD:
+        t0, dt, npts, dur, off = exc[k0 + 2], exc[k0 + 3], int(exc[k0 + 4]), exc[k0 + 5], int(exc[k0 + 6])
+        kf = math.floor((t - t0) / dt)
+        kf = min(max(kf, 0.0), float(npts - 2))
+        k = int(kf)
+        s = t - (t0 + float(k) * dt)
+        s = min(max(s, 0.0), dt)
+        a = data[off + k] + data[off + npts + k] * (s / dt)
+        if not (t >= t0 and t <= dur):
+            a = 0.0
+        return factor * a
+    amp, w, phi, period = exc[k0 + 2], exc[k0 + 3], exc[k0 + 4], exc[k0 + 5]
+    tau = min(max(t, 0.0), period)
+    a = amp * math.sin(w * tau + phi)
+    if not (t >= 0.0 and t < period):
+        a = 0.0
+    return factor * a
+
+
+@njit(cache=True)
+def excitation_load(exc, data, t, out):
+    """The inertial non-contact load per unit mass at t (s), g − a_ground(t), into ``out``
+    (3,) m/s²: ``exc`` the layout ``EXC_*`` built by ``adapter.compiled_excitation``,
+    ``data`` the records' samples and differences. The same numbers as the engine's
+    ``gvec − Excitation3D.acceleration(t)``."""
+    g, d0, d1 = exc[0], exc[1], exc[2]
+    ah = _component_acc(exc, 3, data, t)
+    az = _component_acc(exc, 3 + EXC_COMP, data, t)
+    out[0] = 0.0 - ah * d0
+    out[1] = 0.0 - ah * d1
+    out[2] = -g - az
+
 
 @njit(cache=True)
 def _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf):
@@ -1631,6 +1682,12 @@ def step_block(
     rows_lift,
     imp,
     rows_imp,
+    exc,
+    exc_data,
+    grid,
+    bps,
+    rows_t,
+    rows_acc,
 ):
     """Consecutive :func:`step` calls of the engine loop in one call (inertial ground motion).
 
@@ -1660,10 +1717,38 @@ def step_block(
     before it. An impact pending at a later step ends the block before that step (the next
     block starts with it).
 
-    Returns (steps done, exit code); rows i < steps done hold the state after step i
+    With an excitation ``exc`` (not empty; layout of :func:`excitation_load`, samples
+    ``exc_data``) the block makes its own steps instead of ``t0s``/``hs``/``loads``: from
+    ``grid[0]`` (s), steps of ``grid[1]`` (nominal Δt, s) ending on the breakpoints ``bps``
+    (s, sorted, the last = ``grid[2]``, the duration), at most ``grid[5]`` accepted ones, the
+    loads evaluated here; and it makes the engine loop's step-backs itself: a rejected step is
+    repeated with Δt halved (at most ``grid[3]`` times, not below ``grid[4]`` s) from the
+    solver memory the rejected step left, as :meth:`RigidBodySolver.step` does. Every attempt
+    takes a row (``rows_acc`` 1 accepted, 0 rejected; ``rows_t`` the time after an accepted
+    step). A step-back sequence that reaches the limit, or whose retry needs the Python
+    path, is undone entirely (memory restored, its rows dropped) and the block returns
+    before it.
+
+    Returns (rows done, exit code); rows i < rows done hold the state after step i
     (``rows_sv``) and the step's info (``rows_info``, layout ``I_*``).
     """
+    own = exc.size > 0
     n = t0s.size
+    cap = rows_sv.shape[0]
+    t = grid[0] if own else 0.0
+    dt_nom = grid[1] if own else 0.0
+    duration = grid[2] if own else 0.0
+    max_back = int(grid[3]) if own else 0
+    min_dt = grid[4] if own else 0.0
+    n_lim = int(grid[5]) if own else n
+    nb = bps.size
+    bp_i = 0
+    t_next_bp = 0.0
+    backs = 0
+    h = 0.0
+    seq = 0  # the first row of the current step's attempts
+    acc_n = 0  # accepted steps
+    r = 0  # rows used
     nn = nodes.shape[0]
     ext = np.zeros((7, 3))
     eps = prm[P_EPS]
@@ -1676,40 +1761,85 @@ def step_block(
     cur = sv
     prm[P_NO_PEN] = 0.0
     prm[P_IMPACT] = 1.0
-    for i in range(n):
-        dt = hs[i]
-        prm[P_T0] = t0s[i]
-        prm[P_DT] = dt
-        for c in range(3):
-            ext[0, c] = loads[i, 0, c]
-            ext[1, c] = loads[i, 1, c]
-        cand = _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
-        for a in range(cand.size):
-            j = cand[a]
-            snap_active[j] = active[j]
+    snap_n = 0
+    snap_cand = cand_buf.copy()
+    full_active = np.empty(nn, dtype=active.dtype)
+    full_force = np.empty((nn, 3))
+    post = np.empty(18)
+    after_imp = False  # the current step's retries start from the post-impact state
+    cand = allc
+    while True:
+        i = r
+        if own:
+            if backs == 0:
+                if acc_n >= n_lim or not (t < duration - 1e-12 * dt_nom) or r + max_back + 1 > cap:
+                    return r, STEP_OK
+                while bp_i < nb and bps[bp_i] <= t + 1e-12 * dt_nom:
+                    bp_i += 1
+                t_next_bp = bps[bp_i] if bp_i < nb else duration
+                h = min(dt_nom, t_next_bp - t)
+                seq = r
+            dt = h
+            t0 = t
+            excitation_load(exc, exc_data, t0 + 1e-9 * dt, ext[0])
+            excitation_load(exc, exc_data, (t0 + dt) - 1e-9 * dt, ext[1])
+        else:
+            if i >= n:
+                return n, STEP_OK
+            dt = hs[i]
+            t0 = t0s[i]
             for c in range(3):
-                snap_force[j, c] = prev_force[j, c]
-        snap_pred[:] = pred
-        snap_idx[:] = pred_idx
+                ext[0, c] = loads[i, 0, c]
+                ext[1, c] = loads[i, 1, c]
+        prm[P_T0] = t0
+        prm[P_DT] = dt
+        start = post if after_imp else cur
+        if backs == 0:
+            # a retry keeps the first attempt's candidates and P_COS_CAND, as
+            # RigidBodySolver.candidates does (cached per start state, not per Δt)
+            cand = _block_candidates(start, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
+            # the memory before the step's first attempt
+            snap_n = cand.size
+            for a in range(cand.size):
+                j = cand[a]
+                snap_cand[a] = j
+                snap_active[j] = active[j]
+                for c in range(3):
+                    snap_force[j, c] = prev_force[j, c]
+            snap_pred[:] = pred
+            snap_idx[:] = pred_idx
         out = rows_sv[i]
         info = rows_info[i]
+        if after_imp:
+            prm[P_IMPACT] = 0.0
         code = step(
-            cur, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
+            start, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
         )
-        impact = False
+        prm[P_IMPACT] = 1.0
+        impact = after_imp
+        if code == STEP_IMPACT and backs > 0:
+            # (not expected: the retry starts from the same state) undo the sequence
+            for a in range(snap_n):
+                j = snap_cand[a]
+                active[j] = snap_active[j]
+                for c in range(3):
+                    prev_force[j, c] = snap_force[j, c]
+            pred[:] = snap_pred
+            pred_idx[:] = snap_idx
+            return seq, code
         if code == STEP_IMPACT:
             if i > 0 or imp.size == 0:
                 return i, code
             # the impact at the block's first step: every node's memory saved (the impact
             # and the step after it may touch nodes outside this step's candidates)
-            full_active = active.copy()
-            full_force = prev_force.copy()
-            post = np.empty(18)
+            full_active[:] = active
+            full_force[:] = prev_force
             if not _block_impact(
                 cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, post, rows_imp[0]
             ):
                 return i, code
             impact = True
+            after_imp = True
             cand = _block_candidates(post, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
             prm[P_IMPACT] = 0.0
             code = step(
@@ -1717,20 +1847,33 @@ def step_block(
             )
             prm[P_IMPACT] = 1.0
         gmin = info[I_GMIN]
-        if code == STEP_GENERAL or (code == STEP_REJECTED and gmin < -eps * (1.0 + band_tol)):
+        rejected = code == STEP_REJECTED and gmin < -eps * (1.0 + band_tol)
+        if own and rejected and backs < max_back and h * 0.5 >= min_dt:
+            # a step-back, as the engine loop makes it: the rejected attempt's row is kept
+            # (its statistics count), the solver memory it left is not restored; after an
+            # impact resolved here the retries start from the post-impact state, unchecked
+            rows_acc[i] = 0.0
+            rows_lift[i] = 0.0
+            r += 1
+            backs += 1
+            h *= 0.5
+            continue
+        if code == STEP_GENERAL or rejected:
             if impact:
                 active[:] = full_active
                 prev_force[:] = full_force
                 rows_imp[0, J_FLAG] = 0.0
             else:
-                for a in range(cand.size):
-                    j = cand[a]
+                for a in range(snap_n):
+                    j = snap_cand[a]
                     active[j] = snap_active[j]
                     for c in range(3):
                         prev_force[j, c] = snap_force[j, c]
             pred[:] = snap_pred
             pred_idx[:] = snap_idx
-            return i, STEP_IMPACT if impact else code
+            return (seq if own else i), STEP_IMPACT if impact else code
+        after_imp = False
+        rows_acc[i] = 1.0
         rows_lift[i] = 0.0
         if gmin < -eps:
             lift = -eps - gmin
@@ -1738,13 +1881,19 @@ def step_block(
             info[I_GMIN] = -eps
             rows_lift[i] = lift
         cur = out
+        r = i + 1
+        acc_n += 1
+        backs = 0
+        if own:
+            t = t + h if t + h < t_next_bp - 1e-12 * dt_nom else t_next_bp
+            rows_t[i] = t
         finite = True
         for c in range(18):
             if not np.isfinite(out[c]):
                 finite = False
         if not finite:
             return i + 1, BLOCK_NONFINITE
-        if rest[0] > 0 and t0s[i] + dt >= rest[1]:
+        if rest[0] > 0 and t0 + dt >= rest[1]:
             lim = rest[0] * (1.0 + 1e-6)
             wx, wy, wz = info[I_OMEGA], info[I_OMEGA + 1], info[I_OMEGA + 2]
             speed = math.sqrt(out[3] * out[3] + out[4] * out[4] + out[5] * out[5])
@@ -1757,7 +1906,6 @@ def step_block(
                 al = _mv(R, _mv(inertia_inv, tb))
                 if dv + _norm3(al) * rest[2] * rest[3] < lim:
                     return i + 1, BLOCK_AT_REST
-    return n, STEP_OK
 
 
 # ----------------------------------------------------------------------------- impacts (eq. 3.5)
