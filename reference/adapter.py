@@ -523,9 +523,10 @@ class ReferenceEngine(EngineBase):
                         # the kernel evaluates the excitation: its own time grid, step-backs
                         # included (the rejected attempts are rows too, not accepted)
                         grid = np.array([t, dt_nom, duration, max_back, min_dt, limit])
-                        done, code, rows, infos, lifts, trows, accepted, imp_info = stepper.step_block_own(
+                        done, code, rows, infos, lifts, trows, accepted, imps = stepper.step_block_own(
                             state, own, grid, bps_arr, rest_prm
                         )
+                        imp_info = None  # the impacts are counted below, in order
                         plan = [(t, 0.0)]
                     else:
                         plan, loads, t_after = load.planned(t, limit)
@@ -536,7 +537,9 @@ class ReferenceEngine(EngineBase):
                     if plan:
                         # an impact pending after the block's first step ends it before that
                         # step; the next block starts with it (and resolves it, if it can)
-                        slow_once = code != 0 and not (code == kernel.STEP_IMPACT and done > 0)
+                        slow_once = code != 0 and (
+                            own is not None or not (code == kernel.STEP_IMPACT and done > 0)
+                        )
                         if imp_info is not None:
                             _record_impact(stepper, rec, t, imp_info)
                         if done:
@@ -552,6 +555,7 @@ class ReferenceEngine(EngineBase):
                                 )
                             pens = np.maximum(0.0, -infos[:, kernel.I_GMIN])
                             ncons = infos[:, kernel.I_NCONT].astype(np.int64)
+                            n_ev = len(rec.events)
                             stop, used = rec.record_block(
                                 ts,
                                 rows[:, 0:3],
@@ -565,8 +569,10 @@ class ReferenceEngine(EngineBase):
                                 # the rejected attempts before the last kept step count as
                                 # the step-by-step loop counts them
                                 raw_end = int(kept[used - 1]) + 1
-                                stepper.account_block(all_infos[:raw_end])
                                 stepper.stats.stepbacks += raw_end - used
+                                self._block_impacts(
+                                    stepper, rec, n_ev, t, ts[:used], kept, all_infos, imps, raw_end
+                                )
                             else:
                                 stepper.account_block(infos[:used])
                             stepper.stats.steps += used
@@ -724,6 +730,44 @@ class ReferenceEngine(EngineBase):
             traj.status = RunStatus.FAILED
             traj.message = message
         return traj
+
+    @staticmethod
+    def _block_impacts(
+        stepper: Any,
+        rec: Any,
+        n_ev: int,
+        t: float,
+        ts: np.ndarray,
+        kept: np.ndarray,
+        infos: np.ndarray,
+        imps: np.ndarray,
+        raw_end: int,
+    ) -> None:
+        """Count the rows ``infos[:raw_end]`` of a block with its own excitation and the
+        impacts it resolved (``imps``, layout ``J_*``), in the step-by-step loop's order:
+        each impact's statistics and event before the rows from its step on, and its event
+        (at its step's start, s) before the recorder's events of that step (``rec.events``
+        from ``n_ev`` on; an uplift at its row's time, the others at the block's last kept
+        row ``ts[-1]``). ``kept``: the accepted rows; ``t``: the block's start, s."""
+        from . import kernel
+
+        used = ts.size
+        keyed: list[tuple[tuple[int, int], Any]] = []
+        for e in rec.events[n_ev:]:
+            k = int(np.searchsorted(ts, e.t)) if e.kind == "uplift" else used - 1
+            keyed.append(((min(k, used - 1), 1), e))
+        del rec.events[n_ev:]
+        seg = 0
+        for j in np.flatnonzero(imps[:raw_end, kernel.J_FLAG]):
+            stepper.account_block(infos[seg:j])
+            info = stepper._block_impact_info(imps[j])
+            k = int(np.searchsorted(kept, j))
+            _record_impact(stepper, rec, t if k == 0 else float(ts[k - 1]), info)
+            keyed.append(((k, 0), rec.events.pop()))
+            seg = int(j)
+        stepper.account_block(infos[seg:raw_end])
+        keyed.sort(key=lambda x: x[0])
+        rec.events.extend(e for _, e in keyed)
 
     @staticmethod
     def _near_topple_guard(scene: Scene) -> Any:

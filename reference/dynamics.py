@@ -1008,7 +1008,7 @@ class RigidBodySolver:
         grid: np.ndarray,
         bps: np.ndarray,
         rest: np.ndarray,
-    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any] | None]:
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:func:`kernel.step_block` with the excitation evaluated in the kernel: the steps
         from ``grid[0]`` (s) on the engine's time grid (``grid``: start, nominal Δt, duration,
         step-back limit, minimum Δt, at most this many accepted steps; ``bps`` the
@@ -1017,7 +1017,9 @@ class RigidBodySolver:
 
         Returns (rows done, exit code, states (done, 18), infos (done, N_INFO), band
         projections (done,) m, times after the steps (done,) s, accepted (done,) bool — the
-        rejected attempts of step-backs are rows too — and the impact's event data or None).
+        rejected attempts of step-backs are rows too — and the impacts resolved at the rows'
+        starts (done, N_IMP), layout ``J_*``: the caller counts the kept ones in order with
+        :meth:`account_block` and :meth:`_block_impact_info`).
         """
         cap = 2 * int(grid[5]) + int(grid[3]) + 1
         rows_sv = np.empty((cap, 18))
@@ -1025,7 +1027,7 @@ class RigidBodySolver:
         rows_lift = np.zeros(cap)
         rows_t = np.zeros(cap)
         rows_acc = np.zeros(cap)
-        rows_imp = np.zeros((1, kernel.N_IMP))
+        rows_imp = np.zeros((cap, kernel.N_IMP))
         gaps = np.empty(self.body.nodes.shape[0])
         cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
         self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
@@ -1059,9 +1061,6 @@ class RigidBodySolver:
             rows_t,
             rows_acc,
         )
-        info = None
-        if done > 0 and rows_imp[0, kernel.J_FLAG]:
-            info = self._block_impact_info(rows_imp[0])
         return (
             int(done),
             int(code),
@@ -1070,7 +1069,7 @@ class RigidBodySolver:
             rows_lift[:done],
             rows_t[:done],
             rows_acc[:done] != 0,
-            info,
+            rows_imp[:done],
         )
 
     def _block_impact_info(self, row: np.ndarray) -> dict[str, Any]:

@@ -1828,14 +1828,16 @@ def step_block(
             pred_idx[:] = snap_idx
             return seq, code
         if code == STEP_IMPACT:
-            if i > 0 or imp.size == 0:
+            # (with the block's own excitation an impact is resolved at any step, its event
+            # in rows_imp[i]; else at the first step only, in rows_imp[0])
+            if (i > 0 and not own) or imp.size == 0:
                 return i, code
             # the impact at the block's first step: every node's memory saved (the impact
             # and the step after it may touch nodes outside this step's candidates)
             full_active[:] = active
             full_force[:] = prev_force
             if not _block_impact(
-                cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, post, rows_imp[0]
+                cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, post, rows_imp[i]
             ):
                 return i, code
             impact = True
@@ -1862,7 +1864,7 @@ def step_block(
             if impact:
                 active[:] = full_active
                 prev_force[:] = full_force
-                rows_imp[0, J_FLAG] = 0.0
+                rows_imp[seq if own else i, J_FLAG] = 0.0
             else:
                 for a in range(snap_n):
                     j = snap_cand[a]
