@@ -1713,9 +1713,10 @@ def step_block(
     reduction, size, layout ``IMP_*``) is resolved here when :func:`_block_impact` can (the
     compiled stages of the impact; its event in ``rows_imp[0]``, layout ``J_*``), and the
     step is then made from the post-impact state without the trigger, as the engine loop
-    does; if that step needs the Python path, everything is restored and the block returns
-    before it. An impact pending at a later step ends the block before that step (the next
-    block starts with it).
+    does; if that step needs the Python path (or, with ``exc``, a step-back beyond the
+    limit), everything is restored and the block returns before it. Without ``exc`` an impact
+    pending at a later step ends the block before that step (the next block starts with it);
+    with ``exc`` it is resolved there too, its event in ``rows_imp`` at its step's first row.
 
     With an excitation ``exc`` (not empty; layout of :func:`excitation_load`, samples
     ``exc_data``) the block makes its own steps instead of ``t0s``/``hs``/``loads``: from
