@@ -49,17 +49,19 @@ def engine_shares(members: pd.DataFrame, tests: Sequence[Any]) -> tuple[np.ndarr
     need = {"test", "engine", "toppled", "status"}
     if missing := need - set(members.columns):
         raise ValueError(f"ensemble members: columns {sorted(missing)} missing (expected {sorted(need)})")
-    ok = members[members["status"] == "ok"].copy()
-    ok["test"] = ok["test"].astype(str)
-    ok["toppled"] = ok["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
-    engines = sorted(ok["engine"].unique())
-    g = ok.groupby(["test", "engine"])["toppled"].agg(["mean", "count"])
+    from .ensemble import ensemble_p
+
+    m = members.copy()
+    m["test"] = m["test"].astype(str)
+    m["toppled"] = m["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
+    engines = sorted(m.loc[m["status"] == "ok", "engine"].unique())
     idx = [str(t) for t in tests]
-    share = g["mean"].unstack().reindex(index=idx, columns=engines)
-    count = g["count"].unstack().reindex(index=idx, columns=engines).fillna(0).to_numpy(dtype=int)
+    p = np.full((len(idx), len(engines)), np.nan)
+    count = np.zeros((len(idx), len(engines)), dtype=int)
+    for j, e in enumerate(engines):  # the share per test as validate --ensemble computes it
+        p[:, j], count[:, j], _ = ensemble_p(m[m["engine"] == e], idx)
     if (empty := count.sum(axis=1) == 0).any():
         raise ValueError(f"tests {[t for t, e in zip(idx, empty, strict=True) if e]} have no ok member")
-    p = share.to_numpy(dtype=float, copy=True)
     fill = np.nanmean(p, axis=1)
     rows, cols = np.nonzero(np.isnan(p))
     p[rows, cols] = fill[rows]
