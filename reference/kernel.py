@@ -929,6 +929,50 @@ UNIQUE_MAX_N = 6
 
 
 @njit(cache=True)
+def _lcp_scales(M, q):
+    """(max |q_i|, max |M_ij|): the scales of the LCP tolerances of :func:`lcp_unique` and
+    :func:`lcp_select`."""
+    n = q.size
+    mmax = 0.0
+    qmax = 0.0
+    for i in range(n):
+        qmax = max(qmax, abs(q[i]))
+        for j in range(n):
+            mmax = max(mmax, abs(M[i, j]))
+    return qmax, mmax
+
+
+@njit(cache=True)
+def _subset_solution(M, q, mask, idx, minnorm):
+    """The candidate z of one principal subset (the bits of ``mask``) of the LCP (M, q):
+    z_S solves M[S, S] z_S = −q_S (LU, or the minimum-norm least-squares solve of
+    :func:`_minnorm_solve` when ``minnorm``), z = 0 off S; (z, solved). ``idx`` (n,) is scratch."""
+    n = q.size
+    m = 0
+    for i in range(n):
+        if mask >> i & 1:
+            idx[m] = i
+            m += 1
+    zt = np.zeros(n)
+    if m > 0:
+        sub = np.empty((m, m))
+        rhs = np.empty(m)
+        for a in range(m):
+            rhs[a] = -q[idx[a]]
+            for b in range(m):
+                sub[a, b] = M[idx[a], idx[b]]
+        if minnorm:
+            x, solved = _minnorm_solve(sub, rhs)
+        else:
+            x, solved = _lu_solve(sub, rhs)
+        if not solved:
+            return zt, False
+        for a in range(m):
+            zt[idx[a]] = x[a]
+    return zt, True
+
+
+@njit(cache=True)
 def lcp_unique(M, q):
     """The LCP w = M z + q ≥ 0, z ≥ 0, zᵀw = 0 for a small, well-conditioned symmetric
     positive definite M, by enumerating the principal subsets: (ok, z).
@@ -977,32 +1021,12 @@ def lcp_unique(M, q):
             tri += linv[i, j] * linv[i, j]
     if not 1.0 / tri > UNIQUE_COND * tr:
         return False, z
-    mmax = 0.0
-    qmax = 0.0
-    for i in range(n):
-        qmax = max(qmax, abs(q[i]))
-        for j in range(n):
-            mmax = max(mmax, abs(M[i, j]))
+    qmax, mmax = _lcp_scales(M, q)
     idx = np.empty(n, dtype=np.int64)
     for mask in range(1 << n):
-        m = 0
-        for i in range(n):
-            if mask >> i & 1:
-                idx[m] = i
-                m += 1
-        zt = np.zeros(n)
-        if m > 0:
-            sub = np.empty((m, m))
-            rhs = np.empty(m)
-            for a in range(m):
-                rhs[a] = -q[idx[a]]
-                for b in range(m):
-                    sub[a, b] = M[idx[a], idx[b]]
-            x, solved = _lu_solve(sub, rhs)
-            if not solved:
-                continue
-            for a in range(m):
-                zt[idx[a]] = x[a]
+        zt, solved = _subset_solution(M, q, mask, idx, False)
+        if not solved:
+            continue
         zmax = 0.0
         for i in range(n):
             zmax = max(zmax, abs(zt[i]))
@@ -1086,33 +1110,13 @@ def lcp_select(M, q, ref):
     z = np.zeros(n)
     if n == 0 or n > UNIQUE_MAX_N:
         return False, z
-    mmax = 0.0
-    qmax = 0.0
-    for i in range(n):
-        qmax = max(qmax, abs(q[i]))
-        for j in range(n):
-            mmax = max(mmax, abs(M[i, j]))
+    qmax, mmax = _lcp_scales(M, q)
     idx = np.empty(n, dtype=np.int64)
     found = False
     for mask in range(1 << n):
-        m = 0
-        for i in range(n):
-            if mask >> i & 1:
-                idx[m] = i
-                m += 1
-        zt = np.zeros(n)
-        if m > 0:
-            sub = np.empty((m, m))
-            rhs = np.empty(m)
-            for a in range(m):
-                rhs[a] = -q[idx[a]]
-                for b in range(m):
-                    sub[a, b] = M[idx[a], idx[b]]
-            x, solved = _minnorm_solve(sub, rhs)
-            if not solved:
-                continue
-            for a in range(m):
-                zt[idx[a]] = x[a]
+        zt, solved = _subset_solution(M, q, mask, idx, True)
+        if not solved:
+            continue
         zmax = 0.0
         for i in range(n):
             zmax = max(zmax, abs(zt[i]))
