@@ -959,10 +959,73 @@ class RigidBodySolver:
         n = len(steps)
         t0s = np.array([a for a, _ in steps])
         hs = np.array([b for _, b in steps])
-        rows_sv = np.empty((n, 18))
-        rows_info = np.zeros((n, kernel.N_INFO))
-        rows_lift = np.zeros(n)
-        rows_imp = np.zeros((1, kernel.N_IMP))
+        done, code, rows_sv, rows_info, rows_lift, _, _, rows_imp = self._kernel_block(
+            s0, rest, n, 1, loads, t0s, hs, (_NO_EXC, _NO_EXC), _NO_EXC, _NO_EXC
+        )
+        info = None
+        if done > 0 and rows_imp[0, kernel.J_FLAG]:
+            info = self._block_impact_info(rows_imp[0])
+        return done, code, rows_sv[:done], rows_info[:done], rows_lift[:done], info
+
+    def step_block_own(
+        self,
+        s0: State,
+        exc: tuple[np.ndarray, np.ndarray],
+        grid: np.ndarray,
+        bps: np.ndarray,
+        rest: np.ndarray,
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`kernel.step_block` with the excitation evaluated in the kernel: the steps
+        from ``grid[0]`` (s) on the engine's time grid (``grid``: start, nominal Δt, duration,
+        step-back limit, minimum Δt, at most this many accepted steps; ``bps`` the
+        breakpoints, s), with the step-backs made in the kernel. ``exc`` is
+        ``adapter.compiled_excitation``'s (layout, samples).
+
+        Returns (rows done, exit code, states (done, 18), infos (done, N_INFO), band
+        projections (done,) m, times after the steps (done,) s, accepted (done,) bool — the
+        rejected attempts of step-backs are rows too — and the impacts resolved at the rows'
+        starts (done, N_IMP), layout ``J_*``: the caller counts the kept ones in order with
+        :meth:`account_block` and :meth:`_block_impact_info`).
+        """
+        cap = 2 * int(grid[5]) + int(grid[3]) + 1
+        done, code, rows_sv, rows_info, rows_lift, rows_t, rows_acc, rows_imp = self._kernel_block(
+            s0, rest, cap, cap, _NO_LOADS, _NO_EXC, _NO_EXC, exc, grid, bps
+        )
+        return (
+            done,
+            code,
+            rows_sv[:done],
+            rows_info[:done],
+            rows_lift[:done],
+            rows_t[:done],
+            rows_acc[:done] != 0,
+            rows_imp[:done],
+        )
+
+    def _kernel_block(
+        self,
+        s0: State,
+        rest: np.ndarray,
+        n_rows: int,
+        n_imp: int,
+        loads: np.ndarray,
+        t0s: np.ndarray,
+        hs: np.ndarray,
+        exc: tuple[np.ndarray, np.ndarray],
+        grid: np.ndarray,
+        bps: np.ndarray,
+    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """One :func:`kernel.step_block` call with fresh output rows — ``n_rows`` rows of states,
+        infos, band projections, times and acceptance, ``n_imp`` impact rows — either on planned
+        steps (``loads``, ``t0s``, ``hs``; ``exc``, ``grid``, ``bps`` empty) or on the kernel's
+        own grid (``exc``, ``grid``, ``bps``; the planned ones empty). Returns (done, code,
+        rows_sv, rows_info, rows_lift, rows_t, rows_acc, rows_imp), the rows untrimmed."""
+        rows_sv = np.empty((n_rows, 18))
+        rows_info = np.zeros((n_rows, kernel.N_INFO))
+        rows_lift = np.zeros(n_rows)
+        rows_t = np.zeros(n_rows)
+        rows_acc = np.zeros(n_rows)
+        rows_imp = np.zeros((n_imp, kernel.N_IMP))
         gaps = np.empty(self.body.nodes.shape[0])
         cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
         self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
@@ -989,71 +1052,6 @@ class RigidBodySolver:
             rows_lift,
             self._imp,
             rows_imp,
-            _NO_EXC,
-            _NO_EXC,
-            _NO_EXC,
-            _NO_EXC,
-            np.zeros(n),
-            np.zeros(n),
-        )
-        info = None
-        if done > 0 and rows_imp[0, kernel.J_FLAG]:
-            info = self._block_impact_info(rows_imp[0])
-        return int(done), int(code), rows_sv[:done], rows_info[:done], rows_lift[:done], info
-
-    def step_block_own(
-        self,
-        s0: State,
-        exc: tuple[np.ndarray, np.ndarray],
-        grid: np.ndarray,
-        bps: np.ndarray,
-        rest: np.ndarray,
-    ) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:func:`kernel.step_block` with the excitation evaluated in the kernel: the steps
-        from ``grid[0]`` (s) on the engine's time grid (``grid``: start, nominal Δt, duration,
-        step-back limit, minimum Δt, at most this many accepted steps; ``bps`` the
-        breakpoints, s), with the step-backs made in the kernel. ``exc`` is
-        ``adapter.compiled_excitation``'s (layout, samples).
-
-        Returns (rows done, exit code, states (done, 18), infos (done, N_INFO), band
-        projections (done,) m, times after the steps (done,) s, accepted (done,) bool — the
-        rejected attempts of step-backs are rows too — and the impacts resolved at the rows'
-        starts (done, N_IMP), layout ``J_*``: the caller counts the kept ones in order with
-        :meth:`account_block` and :meth:`_block_impact_info`).
-        """
-        cap = 2 * int(grid[5]) + int(grid[3]) + 1
-        rows_sv = np.empty((cap, 18))
-        rows_info = np.zeros((cap, kernel.N_INFO))
-        rows_lift = np.zeros(cap)
-        rows_t = np.zeros(cap)
-        rows_acc = np.zeros(cap)
-        rows_imp = np.zeros((cap, kernel.N_IMP))
-        gaps = np.empty(self.body.nodes.shape[0])
-        cull_lim = self._cull_lim_id if self._cull else np.zeros(0)
-        self._cand_key = (math.nan, 0.0)  # the kernel sets P_COS_CAND: recompute next time
-        done, code = kernel.step_block(
-            s0.buf,
-            self._prm,
-            _NO_LOADS,
-            _NO_EXC,
-            _NO_EXC,
-            self.body.inertia_inv,
-            self.body.nodes,
-            self._cull,
-            cull_lim,
-            self._inv_lmin,
-            BAND_TOLERANCE,
-            rest,
-            self._active,
-            self._prev_force,
-            self._pred,
-            self._pred_idx,
-            gaps,
-            rows_sv,
-            rows_info,
-            rows_lift,
-            self._imp,
-            rows_imp,
             exc[0],
             exc[1],
             grid,
@@ -1061,16 +1059,7 @@ class RigidBodySolver:
             rows_t,
             rows_acc,
         )
-        return (
-            int(done),
-            int(code),
-            rows_sv[:done],
-            rows_info[:done],
-            rows_lift[:done],
-            rows_t[:done],
-            rows_acc[:done] != 0,
-            rows_imp[:done],
-        )
+        return int(done), int(code), rows_sv, rows_info, rows_lift, rows_t, rows_acc, rows_imp
 
     def _block_impact_info(self, row: np.ndarray) -> dict[str, Any]:
         """Statistics and event data of an impact resolved by :func:`kernel.step_block`
