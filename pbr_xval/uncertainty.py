@@ -49,6 +49,7 @@ __all__ = [
     "ensemble_spec",
     "jeffreys_interval",
     "member_scenario",
+    "p_topple",
     "parse_uncertainty",
 ]
 
@@ -275,6 +276,24 @@ class EnsembleSpec:
             return eng, None
         w = [tw[table.index(e)] for e in eng]
         return eng, (w if sum(w) > 0 else None)
+
+
+def p_topple(k: int, n: int) -> float:
+    """P(topple) from ``k`` toppled of ``n`` members: the Jeffreys posterior mean (k + ½) / (n + 1) [–].
+
+    The ensemble's members are draws from what we do not know; the quantity of interest is the
+    share θ of the whole (infinite) ensemble that topples. Under the Jeffreys prior Beta(½, ½) —
+    the prior of :func:`jeffreys_interval`, so the point and the interval come from one posterior
+    Beta(k + ½, n − k + ½) — the posterior mean is the probability that one more member topples
+    and the estimate of θ with the least expected squared error, i.e. the Bayes forecast under the
+    Brier score. The raw share k / n is not: after 4 agreeing members (an adaptive ensemble's
+    "decided" stop) it says 0 or 1, a certainty four runs cannot give (0 of 4: 0.1; 4 of 4: 0.9;
+    0 of 16: 0.03). It lies inside the Jeffreys interval and on the same side of 0.5 as k / n (so
+    F1 at P ≥ 0.5 is unchanged). ``n = 0`` gives NaN (no member ran: nothing is known).
+    """
+    if n <= 0:
+        return math.nan
+    return (k + 0.5) / (n + 1.0)
 
 
 def jeffreys_interval(k: int, n: int, level: float = 0.95) -> tuple[float, float]:

@@ -7,8 +7,10 @@ worker applies them: :func:`pbr_xval.catalog.tasks.scenario_dict`). Chunks are o
 one block of ``batch`` consecutive members, written to ``<out>/store/`` (resumable: a rerun,
 or a run with more members, recomputes nothing already stored).
 
-P(topple) is the share of toppled members among those that ran (failed runs are counted and
-left out), with the Jeffreys interval (:func:`pbr_xval.uncertainty.jeffreys_interval`). The
+P(topple) comes from the k toppled of the n members that ran (failed runs are counted and left
+out): the Jeffreys posterior mean (k + ½) / (n + 1) (:func:`pbr_xval.uncertainty.p_topple`: the
+Bayes forecast under the Brier score; the raw share k / n is recorded beside it) with the Jeffreys
+interval (:func:`pbr_xval.uncertainty.jeffreys_interval`) of the same posterior. The
 adaptive mode adds members a batch at a time, in design order, and stops once the interval's
 half-width is at most ``half_width`` or the interval lies entirely above or below 0.5.
 """
@@ -25,7 +27,7 @@ from typing import Any
 
 import pandas as pd
 
-from pbr_xval.uncertainty import EnsembleSpec, Member, jeffreys_interval
+from pbr_xval.uncertainty import EnsembleSpec, Member, jeffreys_interval, p_topple
 
 __all__ = [
     "Estimate",
@@ -44,13 +46,18 @@ LEVEL = 0.95
 
 @dataclass(frozen=True)
 class Estimate:
-    """k toppled of n members that ran; p = k / n with its Jeffreys interval [lo, hi]."""
+    """k toppled of n members that ran; P(topple) ``p`` = (k + ½) / (n + 1) (the Jeffreys posterior
+    mean) with the Jeffreys interval [lo, hi]; ``share`` = k / n."""
 
     k: int
     n: int
     p: float
     lo: float
     hi: float
+
+    @property
+    def share(self) -> float:
+        return self.k / self.n if self.n else math.nan
 
     @property
     def half_width(self) -> float:
@@ -61,6 +68,7 @@ class Estimate:
             "k": self.k,
             "n": self.n,
             "p": self.p,
+            "share": self.share,
             "lo": self.lo,
             "hi": self.hi,
             "half_width": self.half_width,
@@ -70,7 +78,7 @@ class Estimate:
 def estimate(toppled: Sequence[bool], level: float = LEVEL) -> Estimate:
     k, n = int(sum(bool(x) for x in toppled)), len(toppled)
     lo, hi = jeffreys_interval(k, n, level)
-    return Estimate(k=k, n=n, p=(k / n if n else math.nan), lo=lo, hi=hi)
+    return Estimate(k=k, n=n, p=p_topple(k, n), lo=lo, hi=hi)
 
 
 def stop_rule(est: Estimate, half_width: float | None) -> str | None:
@@ -289,6 +297,7 @@ class PredictResult:
             "engines": self.engines,
             "engine_weights": self.weights,
             "interval": f"Jeffreys {int(LEVEL * 100)} % (Beta(k + 1/2, n - k + 1/2) quantiles)",
+            "estimate": "Jeffreys posterior mean (k + 1/2) / (n + 1); share = k / n",
             "p_topple": self.overall.to_dict(),
             "per_engine": {e: v.to_dict() for e, v in self.per_engine.items()},
             "members_run": len(self.members),
@@ -378,7 +387,8 @@ def run_predict(
 def format_predict(res: PredictResult) -> list[str]:
     o = res.overall
     lines = [
-        f"P(topple) = {o.p:.3f} [{o.lo:.3f}, {o.hi:.3f}] (Jeffreys 95 % interval; {o.k} of {o.n} members toppled)"
+        f"P(topple) = {o.p:.3f} [{o.lo:.3f}, {o.hi:.3f}] (Jeffreys 95 % interval, P its posterior mean "
+        f"(k + ½) / (n + 1); {o.k} of {o.n} members toppled)"
     ]
     for e, est in res.per_engine.items():
         share = est.n / o.n if o.n else 0.0

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +26,7 @@ import pandas as pd
 
 from pbr_xval.uncertainty import EnsembleSpec, Member
 
-__all__ = ["add_ensemble_model", "ensemble_p", "run_campaign_ensemble"]
+__all__ = ["add_ensemble_model", "ensemble_counts", "ensemble_p", "run_campaign_ensemble"]
 
 MODEL = "ensemble"
 
@@ -238,13 +237,13 @@ def chunk_rows(store: Path, chunks: list[Any]) -> pd.DataFrame:
     return rows[rows["chunk_hash"].isin(hashes)]
 
 
-def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per test (in ``tests`` order): P(topple) (NaN when no member ran), members that ran, failed."""
-    p = np.full(len(tests), math.nan)
+def ensemble_counts(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per test (in ``tests`` order): members that toppled (k), members that ran (n), failed runs."""
+    k = np.zeros(len(tests), dtype=int)
     n_ok = np.zeros(len(tests), dtype=int)
     n_bad = np.zeros(len(tests), dtype=int)
     if member_rows.empty:
-        return p, n_ok, n_bad
+        return k, n_ok, n_bad
     g = member_rows.groupby("test")
     for j, t in enumerate(tests):
         if t not in g.groups:
@@ -252,8 +251,18 @@ def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray,
         sub = g.get_group(t)
         ok = sub["status"] == "ok"
         n_ok[j], n_bad[j] = int(ok.sum()), int((~ok).sum())
-        if n_ok[j]:
-            p[j] = float(sub.loc[ok, "toppled"].mean())
+        k[j] = int(sub.loc[ok, "toppled"].astype(bool).sum())
+    return k, n_ok, n_bad
+
+
+def ensemble_p(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per test (in ``tests`` order): P(topple) = (k + ½) / (n + 1), the Jeffreys posterior mean of
+    the k toppled of the n members that ran (:func:`pbr_xval.uncertainty.p_topple`; NaN when no
+    member ran), members that ran, failed runs."""
+    from pbr_xval.uncertainty import p_topple
+
+    k, n_ok, n_bad = ensemble_counts(member_rows, tests)
+    p = np.array([p_topple(int(a), int(b)) for a, b in zip(k, n_ok, strict=True)], dtype=float)
     return p, n_ok, n_bad
 
 
@@ -336,7 +345,9 @@ def run_ensemble(
     )
     add_ensemble_model(
         res, p, n_ok,
-        evaluated_on=f"all tests (no fitting): share of {how} toppled ({spec.sampling}, seed {spec.seed})",
+        evaluated_on=(
+            f"all tests (no fitting): (k + 1/2) / (n + 1) of k toppled of {how} ({spec.sampling}, seed {spec.seed})"
+        ),
     )  # fmt: skip
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "ensemble_members.csv", df.to_csv(index=False), hidden=True)

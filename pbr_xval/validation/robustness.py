@@ -236,15 +236,16 @@ def run_ensemble_variant(
     baseline correction, engines, settings and store layout under ``out``; no deterministic runs).
 
     Returns (one row per test, campaign order: ``test``, ``observed``, ``pga_m_s2``, ``pgv_m_s``
-    (the lab sheet's), ``k`` toppled of ``n`` members that ran, ``p`` = k / n (NaN when none ran),
+    (the lab sheet's), ``k`` toppled of ``n`` members that ran, ``p`` = (k + ½) / (n + 1) (the
+    Jeffreys posterior mean, as ``validate --ensemble``; NaN when none ran),
     ``failed`` member runs; one row per test × member, as ``ensemble_members.csv``).
     """
     import math
 
     from pbr_xval.scenario import load_scenario
-    from pbr_xval.uncertainty import ensemble_spec
+    from pbr_xval.uncertainty import ensemble_spec, p_topple
     from pbr_xval.validation.campaign import Baseline, load_campaign
-    from pbr_xval.validation.ensemble import ensemble_p, run_campaign_ensemble
+    from pbr_xval.validation.ensemble import ensemble_counts, run_campaign_ensemble
     from pbr_xval.validation.execution import prepare_motions
 
     camp = load_campaign(campaign, specimen).select(tests)
@@ -262,7 +263,7 @@ def run_ensemble_variant(
         workers=workers, progress=progress, half_width=half_width, batch=batch,
     )  # fmt: skip
     names = [t.test for t in camp.tests]
-    p, n_ok, n_bad = ensemble_p(df, names)
+    k, n_ok, n_bad = ensemble_counts(df, names)
     g = 9.80665
     rows = []
     for j, t in enumerate(camp.tests):
@@ -271,7 +272,7 @@ def run_ensemble_variant(
             {
                 "test": t.test, "observed": int(t.toppled), "pga_m_s2": pga,
                 "pgv_m_s": pga * float(t.sheet.get("pgv_over_pga_s", math.nan)),
-                "k": int(np.rint(p[j] * n_ok[j])) if n_ok[j] else 0, "n": int(n_ok[j]), "p": float(p[j]),
+                "k": int(k[j]), "n": int(n_ok[j]), "p": p_topple(int(k[j]), int(n_ok[j])),
                 "failed": int(n_bad[j]),
             }
         )  # fmt: skip

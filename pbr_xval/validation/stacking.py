@@ -1,8 +1,9 @@
 """Engine weights of an ensemble's mixture, fitted to experiments and cross-validated by record.
 
 An ensemble's ``engines`` list is model uncertainty: each member's engine is drawn from the
-mixture's weights (``engine_weights``), and P(topple) is the share of toppled members, i.e. the
-weighted mean of the engines' own shares. Equal weights say "we do not know which contact model is
+mixture's weights (``engine_weights``), so the share of toppled members estimates the weighted
+mean of the engines' own shares (``validate --ensemble`` reports it as the Jeffreys posterior mean
+(k + ½) / (n + 1) of the pooled members, :func:`pbr_xval.uncertainty.p_topple`). Equal weights say "we do not know which contact model is
 right". Once a rock has shake-table experiments they *do* say something about it, and the weights
 can be fitted to them — this is "stacking" of predictive distributions (Wolpert 1992; Yao et al.
 2018, Bayesian Analysis 13(3)): the weights w on the simplex that minimise the Brier score of the
@@ -17,9 +18,10 @@ committed scenario carries).
 
 Input: a ``validate --ensemble`` output folder (``outcomes.csv``: observed, fold, p_ensemble;
 ``ensemble_members.csv``: one row per member with its engine and outcome). No simulation is run.
-A test's P per engine is the share of that engine's ok members (adaptive ensembles run few members
-per engine: the per-engine P is coarse, which the fit sees as noise); a test without members of an
-engine takes the mean of its other engines' shares for it.
+A test's P per engine is the share k / n of that engine's ok members (adaptive ensembles run few
+members per engine: the per-engine P is coarse, which the fit sees as noise; the posterior mean per
+engine would shrink 0 of 2 to 1/6 and 2 of 2 to 5/6, a prior stronger than the data); a test without
+members of an engine takes the mean of its other engines' shares for it.
 
 Usage (developer tool; seconds)::
 
@@ -49,7 +51,7 @@ def engine_shares(members: pd.DataFrame, tests: Sequence[Any]) -> tuple[np.ndarr
     need = {"test", "engine", "toppled", "status"}
     if missing := need - set(members.columns):
         raise ValueError(f"ensemble members: columns {sorted(missing)} missing (expected {sorted(need)})")
-    from .ensemble import ensemble_p
+    from .ensemble import ensemble_counts
 
     m = members.copy()
     m["test"] = m["test"].astype(str)
@@ -58,8 +60,9 @@ def engine_shares(members: pd.DataFrame, tests: Sequence[Any]) -> tuple[np.ndarr
     idx = [str(t) for t in tests]
     p = np.full((len(idx), len(engines)), np.nan)
     count = np.zeros((len(idx), len(engines)), dtype=int)
-    for j, e in enumerate(engines):  # the share per test as validate --ensemble computes it
-        p[:, j], count[:, j], _ = ensemble_p(m[m["engine"] == e], idx)
+    for j, e in enumerate(engines):  # the counts per test as validate --ensemble computes them
+        k, count[:, j], _ = ensemble_counts(m[m["engine"] == e], idx)
+        p[:, j] = np.where(count[:, j] > 0, k / np.maximum(count[:, j], 1), np.nan)
     if (empty := count.sum(axis=1) == 0).any():
         raise ValueError(f"tests {[t for t, e in zip(idx, empty, strict=True) if e]} have no ok member")
     fill = np.nanmean(p, axis=1)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from pathlib import Path
 
@@ -52,8 +53,10 @@ def test_predict_matches_the_closed_form_share(tmp_path: Path) -> None:
     p_true = (HI - A_CRIT) / (HI - LO)
     o = res.overall
     assert o.n == 32 and res.failed == 0
-    # a Sobol design puts one member in each 1/32 of the range: the share is within 1/32 of P
-    assert abs(o.p - p_true) <= 1 / 32 + 1e-9
+    # a Sobol design puts one member in each 1/32 of the range: the share is within 1/32 of P;
+    # the reported P, (k + ½) / (n + 1), is within |½ − share| / (n + 1) ≤ 1/66 of the share
+    assert abs(o.share - p_true) <= 1 / 32 + 1e-9
+    assert abs(o.p - o.share) <= 1 / 66 + 1e-12 and abs(o.p - p_true) <= 1 / 32 + 1 / 66 + 1e-9
     assert o.lo < p_true < o.hi
     # every member toppled exactly when its amplitude is above the closed-form level (±0.2 %)
     df = res.members
@@ -150,6 +153,20 @@ def test_predict_input_errors(tmp_path: Path) -> None:
 def test_estimate_interval(n: int) -> None:
     e = estimate([True] * 2 + [False] * (n - 2))
     assert e.k == 2 and e.n == n and 0 < e.lo < e.p < e.hi < 1
+
+
+@pytest.mark.parametrize(("k", "n"), [(0, 4), (4, 4), (2, 4), (0, 16), (11, 16), (1, 1)])
+def test_p_is_the_jeffreys_posterior_mean(k: int, n: int) -> None:
+    """P(topple) is the mean of the posterior Beta(k + ½, n − k + ½) the interval comes from
+    (scipy's Beta as the independent reference), inside that interval and on the share's side of ½."""
+    from scipy import stats
+
+    e = estimate([True] * k + [False] * (n - k))
+    assert e.p == pytest.approx(stats.beta(k + 0.5, n - k + 0.5).mean(), rel=1e-12)
+    assert e.lo <= e.p <= e.hi and e.share == k / n
+    assert (e.p >= 0.5) == (e.share >= 0.5)
+    assert 0 < e.p < 1  # never a certainty from a finite ensemble
+    assert math.isnan(estimate([]).p)
 
 
 def test_run_member_matches_the_ensemble(tmp_path: Path) -> None:
