@@ -337,7 +337,8 @@ class RockGeometry:
         """The geometry of a compiled scene's rock (:func:`pbr_xval.scene.compile_scene`).
 
         ``azimuth``: ``"min"`` (default) — the direction of the smallest critical tilt over all
-        φ (:func:`_min_tilt_direction`: 0.25° grid, then a bounded scalar search), what matters
+        φ (:meth:`StabilityTable.minimum <pbr_xval.geometry.stability.StabilityTable.minimum>`:
+        branch and bound on a 0.25° grid, then a bounded scalar search), what matters
         when the shaking direction is unknown (a field rock); ``"scenario"`` — the
         weaker of ±d for the scenario's shaking direction d (:attr:`Scene.alpha`); or an angle
         in rad.
@@ -353,7 +354,7 @@ class RockGeometry:
             return a if np.isfinite(a) else math.inf
 
         if azimuth == "min":
-            phi = _min_tilt_direction(v, com, tilt)
+            _, phi = rock.stability.minimum()
         else:
             base = scene.azimuth if azimuth == "scenario" else float(azimuth)
             phi = min((base, base + math.pi), key=tilt)
@@ -381,43 +382,6 @@ class RockGeometry:
     def uplift(self) -> float:
         """g·tan α, m/s² — the acceleration scale of the normalisation."""
         return self.g * math.tan(self.alpha)
-
-
-def _min_tilt_direction(hull: np.ndarray, com: np.ndarray, tilt: Any, step_deg: float = 0.25) -> float:
-    """Direction φ (rad) of the smallest critical tilt α(φ), by branch and bound on a fine grid.
-
-    α(φ) of a scanned rock can dip sharply over a few degrees (SP1: 4.6° over 336–339°, while
-    the 5° grid of :class:`~pbr_xval.geometry.stability.StabilityTable` reads 10.0° at 335°), so
-    a coarse grid is not enough and a fine one costs ~0.05 s per direction. Bound: as the rock
-    turns toward d its lowest point only moves forward along d, so the COM cannot pass over the
-    contact before it passes over the initial one: α(φ) ≥ atan(b_s(φ)/h) with b_s the support
-    lever and h the COM height (cheap, vectorised). Directions are evaluated in increasing
-    order of the bound until the bound exceeds the best α found; the best is then refined by a
-    bounded scalar search within ± one grid step. Dips narrower than ``step_deg`` can be missed.
-    """
-    from scipy.optimize import minimize_scalar
-
-    from pbr_xval.geometry.stability import support_points
-
-    sp = support_points(hull)
-    h = float(com[2] - sp[:, 2].min())
-    phi = np.radians(np.arange(0.0, 360.0, step_deg))
-    b = ((sp[:, :2] - com[:2]) @ np.vstack([np.cos(phi), np.sin(phi)])).max(axis=0)
-    bound = np.arctan2(b, h)
-    best, best_phi = math.inf, math.nan
-    for k in np.argsort(bound):
-        if bound[k] >= best:
-            break
-        a = tilt(float(phi[k]))
-        if a < best:
-            best, best_phi = a, float(phi[k])
-    if not math.isfinite(best):
-        raise ValueError("the rock is not at rest: no critical tilt in any direction")
-    step = math.radians(step_deg)
-    r = minimize_scalar(
-        tilt, bounds=(best_phi - step, best_phi + step), method="bounded", options={"xatol": 1e-5}
-    )
-    return float(r.x) if r.fun < best else best_phi
 
 
 def normalised_ims(pga: ArrayLike, pgv: ArrayLike, geom: RockGeometry) -> np.ndarray:

@@ -378,11 +378,11 @@ def test_validate_transfer_option(box_campaign_files, tmp_path) -> None:
 
 
 def test_min_tilt_search_matches_a_brute_force_grid() -> None:
-    """α_min by branch and bound (bound α(φ) ≥ atan(b_s(φ)/h)) equals the minimum of an exhaustive grid."""
+    """α_min of the transferred baseline's geometry (StabilityTable.minimum: branch and bound)
+    equals the minimum of an exhaustive grid of critical tilts."""
     import trimesh
 
-    from pbr_xval.geometry.stability import critical_tilt, hull_vertices, support_lever
-    from pbr_xval.validation.scores import _min_tilt_direction
+    from pbr_xval.geometry.stability import StabilityTable, critical_tilt, hull_vertices, support_lever
 
     rng = np.random.default_rng(4)
     pts = rng.normal(size=(60, 3)) * [0.3, 0.2, 0.5]
@@ -394,11 +394,15 @@ def test_min_tilt_search_matches_a_brute_force_grid() -> None:
         a = critical_tilt(hv, com, np.array([math.cos(phi), math.sin(phi), 0.0]))
         return a if np.isfinite(a) else math.inf
 
-    grid = np.radians(np.arange(0.0, 360.0, 5.0))
+    grid = np.radians(np.arange(0.0, 360.0, 1.0))
     alpha = np.array([tilt(p) for p in grid])
     bound = np.array(
         [math.atan2(*support_lever(hv, com, np.array([math.cos(p), math.sin(p), 0.0]))) for p in grid]
     )
-    assert np.all(alpha >= bound - 1e-12)  # the bound the search prunes with
-    best = tilt(_min_tilt_direction(hv, com, tilt, step_deg=5.0))
-    assert best <= alpha.min() + 1e-12 and best > alpha.min() - math.radians(1.0)
+    assert np.all(alpha >= bound - 1e-12)  # α ≥ atan(b_s/h): a cheap bound holds on this rock
+    table = StabilityTable(hv, com)
+    for step in (5.0, 0.25):
+        best, phi = table.minimum(step_deg=step)
+        assert best == pytest.approx(tilt(phi), abs=1e-12)
+        on_grid = alpha[:: int(step)] if step >= 1 else alpha  # the search's own grid, or a coarser one
+        assert best <= on_grid.min() + 1e-12 and best > on_grid.min() - math.radians(1.0)
