@@ -256,6 +256,73 @@ def _norm3(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
+# In-place forms of the helpers above for the direct iteration of :func:`step` (no allocation
+# per iteration): the same operations in the same order, so the same numbers bit for bit.
+@njit(cache=True)
+def _mm_into(a, b, c):
+    """c = a @ b for (3, 3) matrices (c distinct from a and b); :func:`_mm`'s arithmetic."""
+    for i in range(3):
+        for j in range(3):
+            c[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
+
+
+@njit(cache=True)
+def _solve3_into(a, b, inv, out):
+    """out = a⁻¹ b (3, 3), :func:`_solve3`'s arithmetic; ``inv`` (3, 3) scratch."""
+    inv[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    inv[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    inv[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    inv[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    inv[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    inv[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    inv[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    inv[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    inv[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    det = a[0, 0] * inv[0, 0] + a[0, 1] * inv[1, 0] + a[0, 2] * inv[2, 0]
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = (inv[i, 0] * b[0, j] + inv[i, 1] * b[1, j] + inv[i, 2] * b[2, j]) / det
+
+
+@njit(cache=True)
+def _cayley_project_into(r_new, r_old, e, wk, out):
+    """out = :func:`_cayley_project` (r_new, r_old), its arithmetic; ``e`` the (3, 3) identity,
+    ``wk`` (5, 3, 3) scratch; ``out`` distinct from r_new and r_old."""
+    dr, a1, b1, wt, inv = wk[0], wk[1], wk[2], wk[3], wk[4]
+    for i in range(3):
+        for j in range(3):
+            dr[i, j] = r_new[i, 0] * r_old[j, 0] + r_new[i, 1] * r_old[j, 1] + r_new[i, 2] * r_old[j, 2]
+    for i in range(3):
+        for j in range(3):
+            a1[i, j] = dr[j, i] + e[j, i]
+            b1[i, j] = dr[j, i] - e[j, i]
+    _solve3_into(a1, b1, inv, wt)
+    # w = wtᵀ; ws = 0.5 (w − wᵀ); q = (e − ws)⁻¹ (e + ws)
+    for i in range(3):
+        for j in range(3):
+            ws = 0.5 * (wt[j, i] - wt[i, j])
+            a1[i, j] = e[i, j] - ws
+            b1[i, j] = e[i, j] + ws
+    _solve3_into(a1, b1, inv, dr)
+    _mm_into(dr, r_old, out)
+
+
+@njit(cache=True)
+def _omega3(R, inertia_inv, lm):
+    """:func:`_omega` as three floats (its arithmetic)."""
+    u0 = R[0, 0] * lm[0] + R[1, 0] * lm[1] + R[2, 0] * lm[2]
+    u1 = R[0, 1] * lm[0] + R[1, 1] * lm[1] + R[2, 1] * lm[2]
+    u2 = R[0, 2] * lm[0] + R[1, 2] * lm[1] + R[2, 2] * lm[2]
+    v0 = inertia_inv[0, 0] * u0 + inertia_inv[0, 1] * u1 + inertia_inv[0, 2] * u2
+    v1 = inertia_inv[1, 0] * u0 + inertia_inv[1, 1] * u1 + inertia_inv[1, 2] * u2
+    v2 = inertia_inv[2, 0] * u0 + inertia_inv[2, 1] * u1 + inertia_inv[2, 2] * u2
+    return (
+        R[0, 0] * v0 + R[0, 1] * v1 + R[0, 2] * v2,
+        R[1, 0] * v0 + R[1, 1] * v1 + R[1, 2] * v2,
+        R[2, 0] * v0 + R[2, 1] * v1 + R[2, 2] * v2,
+    )
+
+
 # ----------------------------------------------------------------------------- support hull
 @njit(cache=True)
 def support_hull(nodes, idx, tol):
@@ -1515,6 +1582,15 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     converged = False
     F1 = F0
     tau1 = tau0
+    # the iterate's buffers (updated in place: the arithmetic of the array expressions
+    # in the comments, element by element)
+    vn = np.empty(3)
+    xn = np.empty(3)
+    ln = np.empty(3)
+    wk = np.empty((8, 3, 3))
+    Sw, SR, Rn, Rp = wk[5], wk[6], wk[7], wk[0:5]
+    Sw[:] = 0.0
+    half_dt = 0.5 * dt
     for it in range(1, int(prm[P_ITER]) + 1):
         its = it
         F1, tau1, ok = _forces(
@@ -1537,18 +1613,59 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
         )
         if not ok:
             return STEP_GENERAL
-        vn = v0 + 0.5 * dt * (F0 + F1) / m  # eq. 3.2
-        xn = x0 + 0.5 * dt * (v0 + vn)  # eq. 3.1
-        ln = l0 + 0.5 * dt * (tau0 + tau1)  # eq. 3.4
-        wn = _omega(R1, inertia_inv, ln)
-        Rn = R0 + 0.5 * dt * (W0R0 + _mm(_skew(wn), R1))  # eq. 3.3
-        if abs(_det3(Rn) - 1.0) > orth or np.abs(_mm(Rn.T.copy(), Rn) - eye).max() > orth:
-            Rn = _cayley_project(Rn, R0)
+        for c in range(3):
+            vn[c] = v0[c] + half_dt * (F0[c] + F1[c]) / m  # eq. 3.2: v0 + 0.5 Δt (F0 + F1) / m
+        for c in range(3):
+            xn[c] = x0[c] + half_dt * (v0[c] + vn[c])  # eq. 3.1: x0 + 0.5 Δt (v0 + vn)
+            ln[c] = l0[c] + half_dt * (tau0[c] + tau1[c])  # eq. 3.4: l0 + 0.5 Δt (τ0 + τ1)
+        wn0, wn1, wn2 = _omega3(R1, inertia_inv, ln)
+        # eq. 3.3: Rn = R0 + 0.5 Δt (W0 R0 + [ωn]× R1)
+        Sw[0, 1] = -wn2
+        Sw[0, 2] = wn1
+        Sw[1, 0] = wn2
+        Sw[1, 2] = -wn0
+        Sw[2, 0] = -wn1
+        Sw[2, 1] = wn0
+        _mm_into(Sw, R1, SR)
+        for i in range(3):
+            for j in range(3):
+                Rn[i, j] = R0[i, j] + half_dt * (W0R0[i, j] + SR[i, j])
+        # |det Rn − 1| > tol or max |Rnᵀ Rn − I| > tol (a NaN element: the max is NaN, not > tol)
+        bad = abs(_det3(Rn) - 1.0) > orth
+        if not bad:
+            nan = False
+            for i in range(3):
+                for j in range(3):
+                    d = abs(Rn[0, i] * Rn[0, j] + Rn[1, i] * Rn[1, j] + Rn[2, i] * Rn[2, j] - eye[i, j])
+                    if d != d:
+                        nan = True
+                    elif d > orth:
+                        bad = True
+            bad = bad and not nan
+        if bad:
+            _cayley_project_into(Rn, R0, eye, Rp, SR)
+            Rn[:] = SR
             info[I_CAYLEY] += 1
-        dv = _norm3(vn - v1) / vscale
-        dl = _norm3(ln - l1) / lscale
-        dR = np.abs(Rn - R1).max()
-        x1, v1, R1, l1 = xn, vn, Rn, ln
+        ev = vn[0] - v1[0]
+        ev1 = vn[1] - v1[1]
+        ev2 = vn[2] - v1[2]
+        dv = math.sqrt(ev * ev + ev1 * ev1 + ev2 * ev2) / vscale
+        ev = ln[0] - l1[0]
+        ev1 = ln[1] - l1[1]
+        ev2 = ln[2] - l1[2]
+        dl = math.sqrt(ev * ev + ev1 * ev1 + ev2 * ev2) / lscale
+        dR = 0.0  # max |Rn − R1| (NaN if any element is)
+        for i in range(3):
+            for j in range(3):
+                d = abs(Rn[i, j] - R1[i, j])
+                if d != d or dR != dR:
+                    dR = math.nan
+                elif d > dR:
+                    dR = d
+        x1[:] = xn
+        v1[:] = vn
+        R1[:] = Rn
+        l1[:] = ln
         if max(dv, dl, dR) <= itol:
             converged = True
             break
