@@ -3,8 +3,9 @@
 Reads the output folders of ``pbr-xval validate … --ensemble`` (their ``outcomes.csv`` and ``store/``) and
 prints, per folder:
 
-* ``rows``: one Markdown table row per model — the ensemble and the deterministic engines from the folder's
-  ``outcomes.csv``; the logistic baselines out of fold by record (4 record folds) fitted on *all* 196
+* ``rows``: one Markdown table row per model — the ensemble (its P recomputed from the folder's
+  ``ensemble_members.csv`` with today's definition, and the share k / n beside it) and the deterministic
+  engines from the folder's ``outcomes.csv``; the logistic baselines out of fold by record (4 record folds) fitted on *all* 196
   calibration tests of the specimen; the transferred logistic law fitted on every test of the other
   specimen — all scored on the folder's tests (so a run on a subset, ``--tests``, is compared with the
   196-test baselines). On a run over all tests the rows equal the run's own ``scores.csv``.
@@ -76,7 +77,11 @@ def rows(label: str, specimen: str, folder: str) -> None:
             f1_score(o, (p >= 0.5).astype(int)),
         )
 
-    out = {"ensemble": sc(oc.loc[ex.test[m], "p_ensemble"].to_numpy(float))}
+    tests = ex.test[m].astype(str).tolist()
+    out = {
+        "ensemble": sc(_p_ensemble(folder, tests)),
+        "ensemble (share k/n)": sc(_p_ensemble(folder, tests, share=True)),
+    }
     for e in ("mujoco", "pybullet"):
         if f"pred_{e}" in oc:
             out[e] = sc(oc.loc[ex.test[m], f"pred_{e}"].to_numpy(float))
@@ -94,6 +99,21 @@ def rows(label: str, specimen: str, folder: str) -> None:
     )
 
 
+def _p_ensemble(folder: str, tests: list[str], share: bool = False) -> np.ndarray:
+    """The ensemble's P per test as ``validate --ensemble`` computes it today (the Jeffreys posterior
+    mean (k + ½) / (n + 1), :func:`pbr_xval.validation.ensemble.ensemble_p`), from the folder's
+    ``ensemble_members.csv`` — so a folder written before that definition is scored with it;
+    ``share``: k / n instead (the definition before commit fbf20a4)."""
+    from pbr_xval.validation.ensemble import ensemble_counts, ensemble_p
+
+    members = pd.read_csv(f"{folder}/ensemble_members.csv", dtype={"test": str})
+    members["toppled"] = members["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
+    if share:
+        k, n, _ = ensemble_counts(members, tests)
+        return np.where(n > 0, k / np.maximum(n, 1), np.nan)
+    return ensemble_p(members, tests)[0]
+
+
 def _stacked(folder: str, oc: pd.DataFrame) -> np.ndarray:
     """The out-of-fold stacked P of ``pbr_xval.validation.stacking`` for the rows of ``oc``."""
     from pbr_xval.validation.stacking import engine_shares, stack_out_of_fold
@@ -106,7 +126,7 @@ def _stacked(folder: str, oc: pd.DataFrame) -> np.ndarray:
 def boot(folder: str, base: str, model: str = "ensemble") -> None:
     oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
     o = oc.observed.to_numpy(float)
-    p = _stacked(folder, oc) if model == "stacked" else oc.p_ensemble.to_numpy(float)
+    p = _stacked(folder, oc) if model == "stacked" else _p_ensemble(folder, oc.test.tolist())
     d = (p - o) ** 2 - ((oc[base] - o) ** 2).to_numpy()
     rec = oc.motion.to_numpy()
     recs = np.unique(rec)
@@ -155,6 +175,7 @@ def cost(folder: str) -> None:
 def split(folder: str, tests: str) -> None:
     oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
     listed = oc.test.isin(tests.split(","))
+    oc["p_ensemble"] = _p_ensemble(folder, oc.test.tolist())
     cols = ["p_ensemble", *[c for c in oc if c.startswith(("pred_", "p_logistic"))]]
     for name, m in (("listed", listed), ("others", ~listed)):
         o = oc.observed[m]
