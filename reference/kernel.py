@@ -168,9 +168,14 @@ def _omega(R, inertia_inv, lm):
 @njit(cache=True)
 def _lu_solve(a, b):
     """x = a⁻¹ b (b: (n,)) by Gaussian elimination with partial pivoting; ok flag."""
-    n = a.shape[0]
-    m = a.copy()
     x = b.copy()
+    return x, _lu_solve_inplace(a.copy(), x)
+
+
+@njit(cache=True)
+def _lu_solve_inplace(m, x):
+    """:func:`_lu_solve` overwriting ``m`` (n, n) and ``x`` (n,) (x ← m⁻¹ x); ok flag."""
+    n = m.shape[0]
     for c in range(n):
         p = c
         best = abs(m[c, c])
@@ -179,7 +184,7 @@ def _lu_solve(a, b):
                 best = abs(m[r, c])
                 p = r
         if best == 0.0:
-            return x, False
+            return False
         if p != c:
             for j in range(n):
                 tmp = m[c, j]
@@ -200,7 +205,7 @@ def _lu_solve(a, b):
         for j in range(c + 1, n):
             s -= m[c, j] * x[j]
         x[c] = s / m[c, c]
-    return x, True
+    return True
 
 
 @njit(cache=True)
@@ -507,11 +512,15 @@ def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel,
     b = np.empty(3 * k)
     rmax = 0.0
     for i in range(k):
-        acc = _mv(kin, r[i]) + a_rel
-        b[3 * i] = acc[2] + stab[3 * i]
-        b[3 * i + 1] = acc[0] + stab[3 * i + 1]
-        b[3 * i + 2] = acc[1] + stab[3 * i + 2]
-        rmax = max(rmax, _norm3(r[i]))
+        # acc = kin r_i + a_rel (as _mv(kin, r[i]) + a_rel, without the two arrays)
+        r0, r1, r2 = r[i, 0], r[i, 1], r[i, 2]
+        acc0 = (kin[0, 0] * r0 + kin[0, 1] * r1 + kin[0, 2] * r2) + a_rel[0]
+        acc1 = (kin[1, 0] * r0 + kin[1, 1] * r1 + kin[1, 2] * r2) + a_rel[1]
+        acc2 = (kin[2, 0] * r0 + kin[2, 1] * r1 + kin[2, 2] * r2) + a_rel[2]
+        b[3 * i] = acc2 + stab[3 * i]
+        b[3 * i + 1] = acc0 + stab[3 * i + 1]
+        b[3 * i + 2] = acc1 + stab[3 * i + 2]
+        rmax = max(rmax, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2))
     gm, gf = _jacobians(r, slide, sdir, mu_d)
     # A = G_m M⁻¹ G_fᵀ through the 6 × 6 inverse mass (rank ≤ 6): H = G_f,ang I_w⁻¹ᵀ
     # (3k × 3), then A_pq = G_m,lin,p · G_f,lin,q / m + G_m,ang,p · H_q
@@ -583,8 +592,19 @@ def _basis(a, rtol):
     column pivoting; a column whose remaining norm is below ``rtol`` of the largest column
     norm counts as dependent."""
     n, m = a.shape
-    q = a.copy()
-    norms = np.empty(m)
+    out = np.empty((n, min(n, m)))
+    r = _basis_into(a, rtol, np.empty((n, m)), np.empty(m), np.empty(m, dtype=np.bool_), out)
+    return out[:, :r]
+
+
+@njit(cache=True)
+def _basis_into(a, rtol, q, norms, used, out):
+    """:func:`_basis` into caller buffers — ``q`` (n, m), ``norms`` (m,), ``used`` (m,) bool
+    scratch; the basis in ``out[:, :r]`` ((n, ≥ min(n, m))) — returns its rank r."""
+    n, m = a.shape
+    for i in range(n):
+        for j in range(m):
+            q[i, j] = a[i, j]
     big = 0.0
     for j in range(m):
         s = 0.0
@@ -592,11 +612,10 @@ def _basis(a, rtol):
             s += q[i, j] * q[i, j]
         norms[j] = s
         big = max(big, s)
-    used = np.zeros(m, dtype=np.bool_)
-    out = np.empty((n, min(n, m)))
+    used[:] = False
     r = 0
     if big == 0.0:
-        return out[:, :0]
+        return 0
     for _ in range(min(n, m)):
         jb = -1
         best = rtol * rtol * big
@@ -621,7 +640,7 @@ def _basis(a, rtol):
                     s += q[i, j] * q[i, j]
                 norms[j] = s
         r += 1
-    return out[:, :r]
+    return r
 
 
 @njit(cache=True)
@@ -643,8 +662,11 @@ def _clamped_solve(A, b, status, scale):
     f = np.zeros(3 * k)
     if ne == 0:
         return f, True
-    sub = np.empty((ne, ne))
-    rhs = np.empty(ne)
+    # the work arrays as views of one allocation (the small solves run a few times per step)
+    nn = ne * ne
+    ws = np.empty(8 * nn + 5 * ne)
+    sub = ws[0:nn].reshape((ne, ne))
+    rhs = ws[8 * nn : 8 * nn + ne]
     # symmetric scaling: (S A S) u = −S b, f = S u (S = diag(scale_E))
     for p in range(ne):
         sp = scale[rows[p]]
@@ -655,31 +677,43 @@ def _clamped_solve(A, b, status, scale):
     # column and row spaces of the (rank-r) block, x = Qr (Qcᵀ A Qr)⁻¹ Qcᵀ rhs — the part of
     # rhs outside the column space (which no force can reach) is left over, and x has no
     # component along the redundant (null-space) directions
-    qc = _basis(sub, 1e-10)
-    qr = _basis(sub.T.copy(), 1e-10)
-    r = qc.shape[1]
-    if qr.shape[1] != r:
+    subt = ws[nn : 2 * nn].reshape((ne, ne))
+    for p in range(ne):
+        for q in range(ne):
+            subt[p, q] = sub[q, p]
+    used = np.empty(ne, dtype=np.bool_)
+    scratch = ws[2 * nn : 3 * nn].reshape((ne, ne))
+    norms = ws[8 * nn + ne : 8 * nn + 2 * ne]
+    qc_buf = ws[3 * nn : 4 * nn].reshape((ne, ne))
+    qr_buf = ws[4 * nn : 5 * nn].reshape((ne, ne))
+    r = _basis_into(sub, 1e-10, scratch, norms, used, qc_buf)
+    if _basis_into(subt, 1e-10, scratch, norms, used, qr_buf) != r:
         return f, False
     if r == 0:
         return f, True
-    aq = np.zeros((ne, r))  # sub @ qr
+    qc = qc_buf[:, :r]
+    qr = qr_buf[:, :r]
+    aq = ws[5 * nn : 5 * nn + ne * r].reshape((ne, r))  # sub @ qr
     for p in range(ne):
         for c in range(r):
             acc = 0.0
             for q in range(ne):
                 acc += sub[p, q] * qr[q, c]
             aq[p, c] = acc
-    K = np.zeros((r, r))  # qcᵀ sub qr
-    g = np.zeros(r)  # qcᵀ rhs
+    K = ws[6 * nn : 6 * nn + r * r].reshape((r, r))  # qcᵀ sub qr
+    K[:] = 0.0
+    g = ws[8 * nn + 2 * ne : 8 * nn + 2 * ne + r]  # qcᵀ rhs
+    g[:] = 0.0
     for c1 in range(r):
         for p in range(ne):
             g[c1] += qc[p, c1] * rhs[p]
             for c2 in range(r):
                 K[c1, c2] += qc[p, c1] * aq[p, c2]
-    y, ok = _lu_solve(K, g)
-    if not ok:
+    y = g  # solved in place (K and g are not needed after)
+    if not _lu_solve_inplace(K, y):
         return f, False
-    x = np.zeros(ne)
+    x = ws[8 * nn + 3 * ne : 8 * nn + 4 * ne]
+    x[:] = 0.0
     for p in range(ne):
         for c in range(r):
             x[p] += qr[p, c] * y[c]
@@ -878,6 +912,12 @@ def _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, tdir):
     fmax = 0.0
     for i in range(k):
         fmax = max(fmax, abs(f[3 * i]))
+    any_free = False
+    for i in range(k):
+        if st[i] == 3 and abs(f[3 * i]) <= 1e-9 * fmax:
+            any_free = True
+    if not any_free:
+        return
     changed = False
     f2 = f.copy()
     st2 = st.copy()
