@@ -757,15 +757,12 @@ class ReferenceEngine(EngineBase):
             k = int(np.searchsorted(ts, e.t)) if e.kind == "uplift" else used - 1
             keyed.append(((min(k, used - 1), 1), e))
         del rec.events[n_ev:]
-        seg = 0
-        for j in np.flatnonzero(imps[:raw_end, kernel.J_FLAG]):
-            stepper.account_block(infos[seg:j])
-            info = stepper._block_impact_info(imps[j])
-            k = int(np.searchsorted(kept, j))
+        # the rows' statistics and the impacts' in one pass, in the step-by-step order
+        flagged = np.flatnonzero(imps[:raw_end, kernel.J_FLAG])
+        infos_imp = stepper.account_block_impacts(infos[:raw_end], imps[:raw_end])
+        for k, info in zip(np.searchsorted(kept, flagged).tolist(), infos_imp, strict=True):
             _record_impact(stepper, rec, t if k == 0 else float(ts[k - 1]), info)
             keyed.append(((k, 0), rec.events.pop()))
-            seg = int(j)
-        stepper.account_block(infos[seg:raw_end])
         keyed.sort(key=lambda x: x[0])
         rec.events.extend(e for _, e in keyed)
 

@@ -1088,9 +1088,21 @@ class RigidBodySolver:
     def account_block(self, info: np.ndarray) -> None:
         """Statistics and ``last_*`` of the steps of :meth:`step_block` (rows ``info``) that
         the run keeps, as :meth:`step` records them step by step."""
+        self.account_block_impacts(info, None)
+
+    def account_block_impacts(self, info: np.ndarray, imps: np.ndarray | None) -> list[dict[str, Any]]:
+        """:meth:`account_block` of the rows ``info`` (m, N_INFO) of a block and
+        :meth:`_block_impact_info` of the impacts it resolved (``imps`` (m, N_IMP), flagged
+        rows, layout ``J_*``; None: no impact), the residual lists in the step-by-step order (an impact's before
+        the rows from its step on); returns the impacts' event data, in order.
+
+        The same lists and counts as :meth:`account_block` called on each segment between
+        impacts and :meth:`_block_impact_info` on each impact, in one pass: the counts are
+        sums of small integers (exact in any order) and maxima."""
         m = info.shape[0]
         if m == 0:
-            return
+            return []
+        flagged = [] if imps is None else np.flatnonzero(imps[:, kernel.J_FLAG]).tolist()
         st = self.stats
         its = info[:, kernel.I_ITS]
         st.kernel_steps += m
@@ -1100,18 +1112,36 @@ class RigidBodySolver:
         st.iterations_total += int(its.sum())
         st.iterations_max = max(st.iterations_max, int(its.max()))
         st.iteration_nonconverged += int((info[:, kernel.I_CONV] == 0).sum())
-        res = info[info[:, kernel.I_NRES] != 0]
-        if res.shape[0]:
-            st.signorini_f.extend(res[:, kernel.I_SIG_F].tolist())
-            st.signorini_a.extend(res[:, kernel.I_SIG_A].tolist())
-            st.complementarity.extend(res[:, kernel.I_COMPL].tolist())
-            st.cone.extend(np.maximum(0.0, res[:, kernel.I_CONE]).tolist())
+        has = info[:, kernel.I_NRES] != 0
+        res = info[has]
+        cols = (
+            res[:, kernel.I_SIG_F].tolist(),
+            res[:, kernel.I_SIG_A].tolist(),
+            res[:, kernel.I_COMPL].tolist(),
+            np.maximum(0.0, res[:, kernel.I_CONE]).tolist(),
+        )
+        lists = (st.signorini_f, st.signorini_a, st.complementarity, st.cone)
+        # residual rows before each impact's row (a cumulative count)
+        before = np.concatenate(([0], np.cumsum(has))).tolist()
+        out = []
+        a = 0
+        for j in flagged:
+            b = before[j]
+            if b > a:
+                for lst, col in zip(lists, cols, strict=True):
+                    lst.extend(col[a:b])
+            a = b
+            out.append(self._block_impact_info(imps[j]))
+        if len(cols[0]) > a:
+            for lst, col in zip(lists, cols, strict=True):
+                lst.extend(col[a:])
         last = info[-1]
         self.last_gmin = float(last[kernel.I_GMIN])
         self.last_ncontacts = int(last[kernel.I_NCONT])
         self.last_force = last[kernel.I_F1 : kernel.I_F1 + 3].copy()
         self.last_torque = last[kernel.I_TAU1 : kernel.I_TAU1 + 3].copy()
         self.last_omega = last[kernel.I_OMEGA : kernel.I_OMEGA + 3].tolist()
+        return out
 
     def _step_general(self, s0: State, t0: float, dt: float, tl0: float, tl1: float) -> tuple[State, int]:
         """:meth:`step` in NumPy with the general resting solver (same arithmetic as
