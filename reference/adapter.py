@@ -19,6 +19,7 @@ Usage::
 from __future__ import annotations
 
 import functools
+import hashlib
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -97,12 +98,32 @@ def _with_side_nodes(nodes: np.ndarray, mesh: Any, com: np.ndarray) -> np.ndarra
     The basal nodes carry the rocking; the hull vertices above the COM only meet a flat
     pedestal after the rock has rotated past horizontal (a toppled rock lying on its side).
     Without them such a rock would pass through the pedestal."""
+    v = np.ascontiguousarray(mesh.vertices, dtype=float)
+    extra = _hull_above(v, float(com[2]))
+    return np.vstack([nodes, extra]) if extra.size else nodes
+
+
+#: the hull vertices above the COM of the last meshes seen (the vertices' and the COM height's
+#: bytes → (M, 3)): a campaign runs one rock under many records, and the convex hull
+#: (~6 ms on a scanned rock) is the largest fixed cost of a run
+_HULL_ABOVE: dict[tuple[bytes, int, float], np.ndarray] = {}
+_HULL_ABOVE_MAX = 8
+
+
+def _hull_above(v: np.ndarray, z_com: float) -> np.ndarray:
+    """The convex-hull vertices (M, 3) of the points ``v`` (N, 3), m, above the height
+    ``z_com`` (m), memoised on the points' values (a copy is returned)."""
     from scipy.spatial import ConvexHull
 
-    v = np.asarray(mesh.vertices, dtype=float)
-    hull = v[ConvexHull(v).vertices]
-    extra = hull[hull[:, 2] > com[2]]
-    return np.vstack([nodes, extra]) if extra.size else nodes
+    key = (hashlib.blake2b(v.tobytes(), digest_size=16).digest(), v.shape[0], z_com)
+    hit = _HULL_ABOVE.get(key)
+    if hit is None:
+        hull = v[ConvexHull(v).vertices]
+        hit = hull[hull[:, 2] > z_com]
+        if len(_HULL_ABOVE) >= _HULL_ABOVE_MAX:
+            _HULL_ABOVE.pop(next(iter(_HULL_ABOVE)))
+        _HULL_ABOVE[key] = hit
+    return hit.copy()
 
 
 def _step_starts(

@@ -1102,7 +1102,11 @@ class RigidBodySolver:
         m = info.shape[0]
         if m == 0:
             return []
-        flagged = [] if imps is None else np.flatnonzero(imps[:, kernel.J_FLAG]).tolist()
+        flagged: list[int] = []
+        rows_imp = np.zeros((0, kernel.N_IMP))
+        if imps is not None:
+            flagged = np.flatnonzero(imps[:, kernel.J_FLAG]).tolist()
+            rows_imp = imps
         st = self.stats
         its = info[:, kernel.I_ITS]
         st.kernel_steps += m
@@ -1131,7 +1135,7 @@ class RigidBodySolver:
                 for lst, col in zip(lists, cols, strict=True):
                     lst.extend(col[a:b])
             a = b
-            out.append(self._block_impact_info(imps[j]))
+            out.append(self._block_impact_info(rows_imp[j]))
         if len(cols[0]) > a:
             for lst, col in zip(lists, cols, strict=True):
                 lst.extend(col[a:])

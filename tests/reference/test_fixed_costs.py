@@ -1,0 +1,97 @@
+"""Issue 23, fifth pass: the per-run and per-step costs cut outside the kernel give the same
+answers as the code they replace — the recorder's critical-tilt test against
+``Scene.past_critical``, the memoised hull of the side nodes against a fresh convex hull, and a
+block's one-pass statistics against the per-segment accounting."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull
+from scipy.spatial.transform import Rotation
+
+from pbr_xval import conformance as conf
+from pbr_xval.reference import adapter, kernel
+from pbr_xval.reference.dynamics import Body, Pedestal, RigidBodySolver
+from pbr_xval.scene import compile_scene
+from pbr_xval.stepping import Recorder
+
+
+def test_recorder_past_critical_equals_scene() -> None:
+    scene = compile_scene(conf.housner_scenario(duration=0.1))
+    rec = Recorder(scene, 1e-3)
+    rec.start(np.asarray(scene.rock.com, dtype=float), np.eye(3))
+    rng = np.random.default_rng(5)
+    # tilts around the critical tilt (~0.2 rad for this block) in every direction, plus none
+    rots = [np.eye(3)]
+    for _ in range(3000):
+        axis = np.array([*rng.normal(size=2), 0.0])
+        axis /= np.linalg.norm(axis)
+        tilt = rng.uniform(0.0, 0.6)
+        spin = Rotation.from_rotvec([0.0, 0.0, rng.uniform(-np.pi, np.pi)])
+        rots.append((Rotation.from_rotvec(tilt * axis) * spin).as_matrix())
+    answers = [rec._past_critical(r) for r in rots]
+    assert answers == [scene.past_critical(r) for r in rots]
+    assert 500 < sum(answers) < 2500  # both sides of the critical tilt were tried
+
+
+def test_hull_above_memo_equals_fresh_hull() -> None:
+    rng = np.random.default_rng(7)
+    v = rng.normal(size=(400, 3))
+    hull = v[ConvexHull(v).vertices]
+    want = hull[hull[:, 2] > 0.2]
+    first = adapter._hull_above(v, 0.2)
+    first[:] = 0.0  # a copy: the memo is not changed through it
+    again = adapter._hull_above(v, 0.2)
+    np.testing.assert_array_equal(again, want)
+    assert adapter._hull_above(v, 0.5).shape[0] < want.shape[0]  # the height is in the key
+    for _ in range(2 * adapter._HULL_ABOVE_MAX):  # bounded
+        adapter._hull_above(rng.normal(size=(30, 3)), 0.0)
+    assert len(adapter._HULL_ABOVE) <= adapter._HULL_ABOVE_MAX
+
+
+def _solver() -> RigidBodySolver:
+    scene = compile_scene(conf.housner_scenario(duration=0.1))
+    nodes = np.asarray(scene.basal_nodes, dtype=float) - np.asarray(scene.rock.com, dtype=float)
+    body = Body(float(scene.rock.mass), np.asarray(scene.rock.inertia, dtype=float), nodes)
+    settings = adapter.ReferenceEngine().resolve_settings(None)
+    return RigidBodySolver(
+        body, Pedestal("plane"), lambda t: np.array([0.0, 0.0, -9.81]), 0.6, 0.6, 0.0, settings
+    )
+
+
+def test_account_block_impacts_equals_segments() -> None:
+    """One pass over a block with impacts at rows 0, 4 and 9 gives the lists and counts of
+    account_block on the segments between them with each impact's statistics in between."""
+    rng = np.random.default_rng(3)
+    m = 12
+    info = np.zeros((m, kernel.N_INFO))
+    info[:, kernel.I_ITS] = rng.integers(1, 6, m)
+    info[:, kernel.I_SOLVES] = rng.integers(1, 5, m)
+    info[:, kernel.I_FAST] = info[:, kernel.I_SOLVES]
+    info[:, kernel.I_CONV] = rng.integers(0, 2, m)
+    info[:, kernel.I_NRES] = rng.integers(0, 2, m)
+    for col in (kernel.I_SIG_F, kernel.I_SIG_A, kernel.I_COMPL, kernel.I_CONE, kernel.I_GMIN):
+        info[:, col] = rng.normal(size=m)
+    imps = np.zeros((m, kernel.N_IMP))
+    for j in (0, 4, 9):
+        imps[j] = rng.normal(size=kernel.N_IMP)
+        imps[j, kernel.J_FLAG] = 1.0
+        imps[j, kernel.J_REVERTED] = 1.0 if j == 4 else 0.0
+    one, seg = _solver(), _solver()
+    got = one.account_block_impacts(info, imps)
+    want = []
+    a = 0
+    for j in (0, 4, 9):
+        if j > a:
+            seg.account_block(info[a:j])
+        want.append(seg._block_impact_info(imps[j]))
+        a = j
+    seg.account_block(info[a:])
+    assert got == want
+    for name in ("signorini_f", "signorini_a", "complementarity", "cone"):
+        assert getattr(one.stats, name) == getattr(seg.stats, name)
+    for name in ("kernel_steps", "lcp_solves", "lcp_fast_path", "iterations_total", "iterations_max"):
+        assert getattr(one.stats, name) == getattr(seg.stats, name)
+    assert one.stats.iteration_nonconverged == seg.stats.iteration_nonconverged
+    assert one.stats.selection_reverted == seg.stats.selection_reverted == 1
+    assert one.last_gmin == seg.last_gmin
