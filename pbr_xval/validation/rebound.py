@@ -33,9 +33,21 @@ about d, yaw about z), the peak COM displacement along e and the engine's standa
 flight diagnostics. Planar formulas assume the rock stays in the plane: where it does not, the
 printed ratios are what the engine did, not a test of the formula.
 
+``--specimens prism`` runs the control: a two-edge asymmetric prism (:data:`PRISM_SECTION`), on
+which the planar formula is exact, so an engine's departure from it there is its contact model
+and time step, not the geometry.
+
+Printed per engine × rock × dt × side: ``rebound`` (the first two face impacts' ω⁺/ω⁻, measured,
+the two-pivot value and their ratio), ``energy`` (start, first turning point against the
+polygon rocker, energy kept per half-cycle against the polygon rocker started from the measured
+turning point), ``landing`` (kinetic energy kept at the first edge landing, measured and for the
+three kinematics of :func:`first_landing_3d`), ``cycle`` (geometric mean of the first four
+half-cycles and the energy lost per cycle of two half-cycles) and ``motion``.
+
 Usage (developer tool; a few minutes)::
 
-    python -m pbr_xval.validation.rebound --out runs/rebound.json
+    python -m pbr_xval.validation.rebound --specimens prism,SP1,SP2 --sides weak,strong \
+        --fraction 0.5 --out runs/rebound/f050.json
 """
 
 from __future__ import annotations
@@ -61,8 +73,10 @@ __all__ = [
     "two_pivot_rebound",
 ]
 
-#: committed scanned-rock scenarios: specimen number → path relative to the repository root
-SPECIMENS = {1: "examples/validation/sp1.toml", 2: "examples/validation/sp2.toml"}
+#: committed scanned-rock scenarios: label → path relative to the repository root
+SPECIMENS = {"SP1": "examples/validation/sp1.toml", "SP2": "examples/validation/sp2.toml"}
+#: the control rock ``prism``: a two-edge asymmetric section (x, z), m, extruded over y ∈ [−0.2, 0.2] m
+PRISM_SECTION = ((-0.12, 0.0), (0.28, 0.0), (0.12, 1.0), (-0.12, 1.0))
 #: a half-cycle whose peak |θ| stays below this (rad) is contact chatter, not rocking
 MIN_HALF_CYCLE_RAD = 2e-3
 #: samples closer than this (s) to a θ = 0 crossing are left out of the energy before/after it
@@ -441,12 +455,32 @@ def measure_rocking(traj: Any, scene: Any, section: Section) -> RockingMeasureme
 
 
 # --------------------------------------------------------------------- the tool
-def free_rocking_scene(path: Path, fraction: float, side: int, duration: float) -> tuple[Any, Section, float]:
-    """(compiled scene, section, start rate rad/s) of a committed scenario released from θ = 0."""
-    from pbr_xval.scenario import load_scenario
+def prism_scenario(folder: Path) -> Any:
+    """The control rock: :data:`PRISM_SECTION` extruded along y (a mesh written to ``folder``),
+    granite density 2400 kg/m³, the scanned rocks' friction 0.6, shaken along x."""
+    import trimesh
+
+    from pbr_xval.scenario import scenario_from_dict
+
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "prism.obj"
+    v = [(x, y, z) for x, z in PRISM_SECTION for y in (-0.2, 0.2)]
+    trimesh.Trimesh(vertices=v).convex_hull.export(path)
+    return scenario_from_dict(
+        {
+            "name": "prism",
+            "duration": 3.0,
+            "rock": {"shape": "mesh", "path": str(path), "density": 2400.0},
+            "contact": {"friction_static": 0.6},
+            "excitation": {"type": "none", "azimuth_deg": 0.0},
+        }
+    )
+
+
+def free_rocking_scene(scn: Any, fraction: float, side: int, duration: float) -> tuple[Any, Section, float]:
+    """(compiled scene, section, start rate rad/s) of a scenario released from θ = 0 on ``side``."""
     from pbr_xval.scene import compile_scene
 
-    scn = load_scenario(path)
     sec = Section.from_scene(compile_scene(scn))
     rate = sec.start_rate(fraction, side)
     data = scn.model_dump(mode="json", exclude_unset=True)
@@ -455,6 +489,11 @@ def free_rocking_scene(path: Path, fraction: float, side: int, duration: float) 
     data.update(excitation=exc, initial={"omega": rate}, duration=duration, output_dt=1e-3)
     data["name"] = f"{scn.name}_free_rocking"
     return compile_scene(scn.from_tables(data)), sec, rate
+
+
+def _gmean(xs: list[float]) -> float:
+    ok = [x for x in xs if math.isfinite(x) and x > 0]
+    return math.exp(sum(math.log(x) for x in ok) / len(ok)) if ok else math.nan
 
 
 def _fmt(xs: list[float]) -> str:
@@ -474,15 +513,16 @@ def _git() -> dict[str, Any]:
 
 
 def run_one(
-    engine: str, specimen: int, dt: float, fraction: float, side_name: str, duration: float
+    engine: str, specimen: str, scn: Any, dt: float, fraction: float, side_name: str, duration: float
 ) -> dict[str, Any]:
-    """One free-rocking run and its comparison with the section; a JSON-able record."""
+    """One free-rocking run of scenario ``scn`` (labelled ``specimen``) and its comparison with
+    the section; a JSON-able record."""
     from pbr_xval.runner import run_scene
 
-    _, sec, _ = free_rocking_scene(Path(SPECIMENS[specimen]), fraction, 1, duration)
+    _, sec, _ = free_rocking_scene(scn, fraction, 1, duration)
     weak = 1 if sec.alpha(1) <= sec.alpha(-1) else -1
     side = weak if side_name == "weak" else -weak
-    scene, sec, rate = free_rocking_scene(Path(SPECIMENS[specimen]), fraction, side, duration)
+    scene, sec, rate = free_rocking_scene(scn, fraction, side, duration)
     t0 = time.perf_counter()
     traj = run_scene(scene, engine, {"timestep": dt})
     wall = time.perf_counter() - t0
@@ -530,7 +570,7 @@ def run_one(
 
 def report_lines(rec: dict[str, Any]) -> list[str]:
     """The printed summary of one run record."""
-    tag = f"{rec['engine']} SP{rec['specimen']} dt {rec['dt']:g} {rec['side']}"
+    tag = f"{rec['engine']} {rec['specimen']} dt {rec['dt']:g} {rec['side']}"
     if "impacts" not in rec:
         return [f"rebound {tag}: run failed ({rec['status']}: {rec['message']})"]
     imp = rec["impacts"][:2]
@@ -538,6 +578,7 @@ def report_lines(rec: dict[str, Any]) -> list[str]:
     g = [i["geometry"] for i in imp]
     q = [a / b for a, b in zip(m, g, strict=True)]
     hc = rec["half_cycles"][:4]
+    hm, hg = _gmean([h["measured"] for h in hc]), _gmean([h["geometry"] for h in hc])
     lines = [
         f"rebound {tag} measured {_fmt(m)} geometry {_fmt(g)} ratio {_fmt(q)}",
         f"energy {tag} start {rec['energy_start_J']:.3f} J first peak {rec['first_peak']['measured_J']:.3f} J "
@@ -546,6 +587,8 @@ def report_lines(rec: dict[str, Any]) -> list[str]:
         "landing {} at {:.2f} deg KE kept measured {:.3f} geometry planar {:.3f} point {:.3f} edge {:.3f}".format(
             tag, rec["first_landing"].get("theta_deg", math.nan), rec["first_landing"]["measured"],
             *(rec["first_landing"].get(k, math.nan) for k in ("planar", "point", "edge"))),
+        f"cycle {tag} energy kept per half-cycle (geometric mean of {len(hc)}) measured {hm:.3f} geometry {hg:.3f}; "
+        f"lost per cycle measured {1 - hm * hm:.3f} geometry {1 - hg * hg:.3f}",
         f"motion {tag} toppled {rec['toppled']} peak roll {math.degrees(rec['peak_roll_rad']):.2f} deg "
         f"yaw {math.degrees(rec['peak_yaw_rad']):.2f} deg COM off-plane {1e3 * rec['peak_offplane_com_m']:.1f} mm "
         f"slip {1e3 * (rec['slip_max_m'] or 0):.1f} mm flights {rec['flights']} regime {rec['regime']}",
@@ -558,7 +601,7 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m pbr_xval.validation.rebound", description=__doc__.split("\n")[0]
     )
     p.add_argument("--engines", default="mujoco,pybullet,dart,reference")
-    p.add_argument("--specimens", default="1,2")
+    p.add_argument("--specimens", default="SP1,SP2", help="SP1, SP2 (committed scenarios), prism (control)")
     p.add_argument("--dt", default="1e-3,1e-4", help="time steps, s")
     p.add_argument("--sides", default="weak", help="weak,strong")
     p.add_argument(
@@ -567,16 +610,23 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--duration", type=float, default=3.0, help="s")
     p.add_argument("--out", type=Path, default=None, help="JSON of the runs")
     a = p.parse_args(argv)
+    import tempfile
+
     from pbr_xval.atomic import write_text_atomic
     from pbr_xval.jsonio import dumps
     from pbr_xval.machine import machine_info
+    from pbr_xval.scenario import load_scenario
 
     records = []
-    for spec in [int(s) for s in a.specimens.split(",")]:
+    tmp = Path(tempfile.mkdtemp(prefix="pbr_xval_rebound_"))
+    for spec in a.specimens.split(","):
+        if spec != "prism" and spec not in SPECIMENS:
+            p.error(f"--specimens: unknown {spec!r}; expected prism or one of {sorted(SPECIMENS)}")
+        scn = prism_scenario(tmp) if spec == "prism" else load_scenario(SPECIMENS[spec])
         for side in a.sides.split(","):
             for dt in [float(x) for x in a.dt.split(",")]:
                 for eng in a.engines.split(","):
-                    rec = run_one(eng, spec, dt, a.fraction, side, a.duration)
+                    rec = run_one(eng, spec, scn, dt, a.fraction, side, a.duration)
                     records.append(rec)
                     for line in report_lines(rec):
                         print(line, flush=True)
