@@ -455,8 +455,18 @@ def _jacobians(r, slide, sdir, mu_d):
     contact; for a sliding contact the normal force row is n − μ_d ŝ (dynamic friction
     rides on the normal force)."""
     k = r.shape[0]
-    gm = np.zeros((3 * k, 6))
-    gf = np.zeros((3 * k, 6))
+    gm = np.empty((3 * k, 6))
+    gf = np.empty((3 * k, 6))
+    _jacobians_into(r, slide, sdir, mu_d, gm, gf)
+    return gm, gf
+
+
+@njit(cache=True)
+def _jacobians_into(r, slide, sdir, mu_d, gm, gf):
+    """:func:`_jacobians` into the caller's ``gm``, ``gf`` (3k, 6) (zeroed here)."""
+    k = r.shape[0]
+    gm[:] = 0.0
+    gf[:] = 0.0
     for i in range(k):
         rx, ry, rz = r[i, 0], r[i, 1], r[i, 2]
         # rows n = ez, x = ex, y = ey; angular parts r × d
@@ -482,7 +492,6 @@ def _jacobians(r, slide, sdir, mu_d):
             gf[3 * i, 3] = ry * d2 - rz * d1
             gf[3 * i, 4] = rz * d0 - rx * d2
             gf[3 * i, 5] = rx * d1 - ry * d0
-    return gm, gf
 
 
 @njit(cache=True)
@@ -503,13 +512,65 @@ def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel,
     no contact force can cancel, m/s².
     """
     k = nodes_c.shape[0]
-    iw = _mmt(_mm(R, inertia_inv), R)
-    w = _mv(iw, lm)
-    r = _points_mt(nodes_c, R)
-    wx = _skew(w)
-    alpha = -_mv(iw, _mv(wx, lm))
-    kin = _skew(alpha) + _mm(wx, wx)
-    b = np.empty(3 * k)
+    n3 = 3 * k
+    A = np.empty((n3, n3))
+    b = np.empty(n3)
+    gf = np.empty((n3, 6))
+    work = np.empty(n3 * 9 + 3 * k + 45)
+    cons = _contact_problem_into(
+        R, lm, inertia_inv, mass, nodes_c, np.arange(k), slide, sdir, stab, a_rel, mu_d, A, b, gf, work
+    )
+    return A, b, gf, cons
+
+
+@njit(cache=True)
+def _contact_problem_into(
+    R, lm, inertia_inv, mass, nodes, idx, slide, sdir, stab, a_rel, mu_d, A, b, gf, work
+):
+    """:func:`contact_problem` of the nodes ``nodes[idx]`` (k contacts) into the caller's
+    ``A`` (3k, 3k), ``b`` (3k,), ``gf`` (3k, 6), with ``work`` (≥ 27k + 3k + 45 floats)
+    scratch; returns omega2r. The same operations in the same order (the 3 × 3 products of
+    :func:`_mm`, :func:`_mmt`, :func:`_mv` on the same zero-filled skew matrices)."""
+    k = idx.size
+    n3 = 3 * k
+    t33 = work[0:9].reshape((3, 3))
+    iw = work[9:18].reshape((3, 3))
+    wx = work[18:27].reshape((3, 3))
+    sa = work[27:36].reshape((3, 3))
+    kin = work[36:45].reshape((3, 3))
+    gm = work[45 : 45 + 6 * n3].reshape((n3, 6))
+    H = work[45 + 6 * n3 : 45 + 9 * n3].reshape((n3, 3))
+    r = work[45 + 9 * n3 : 45 + 9 * n3 + 3 * k].reshape((k, 3))
+    # iw = _mmt(_mm(R, inertia_inv), R)
+    for i in range(3):
+        for j in range(3):
+            t33[i, j] = (
+                R[i, 0] * inertia_inv[0, j] + R[i, 1] * inertia_inv[1, j] + R[i, 2] * inertia_inv[2, j]
+            )
+    for i in range(3):
+        for j in range(3):
+            iw[i, j] = t33[i, 0] * R[j, 0] + t33[i, 1] * R[j, 1] + t33[i, 2] * R[j, 2]
+    # w = _mv(iw, lm)
+    w0 = iw[0, 0] * lm[0] + iw[0, 1] * lm[1] + iw[0, 2] * lm[2]
+    w1 = iw[1, 0] * lm[0] + iw[1, 1] * lm[1] + iw[1, 2] * lm[2]
+    w2 = iw[2, 0] * lm[0] + iw[2, 1] * lm[1] + iw[2, 2] * lm[2]
+    # r = _points_mt(nodes[idx], R)
+    for a in range(k):
+        p = idx[a]
+        for j in range(3):
+            r[a, j] = R[j, 0] * nodes[p, 0] + R[j, 1] * nodes[p, 1] + R[j, 2] * nodes[p, 2]
+    # wx = _skew(w); alpha = -_mv(iw, _mv(wx, lm)); kin = _skew(alpha) + _mm(wx, wx)
+    _skew_into(w0, w1, w2, wx)
+    y0 = wx[0, 0] * lm[0] + wx[0, 1] * lm[1] + wx[0, 2] * lm[2]
+    y1 = wx[1, 0] * lm[0] + wx[1, 1] * lm[1] + wx[1, 2] * lm[2]
+    y2 = wx[2, 0] * lm[0] + wx[2, 1] * lm[1] + wx[2, 2] * lm[2]
+    al0 = -(iw[0, 0] * y0 + iw[0, 1] * y1 + iw[0, 2] * y2)
+    al1 = -(iw[1, 0] * y0 + iw[1, 1] * y1 + iw[1, 2] * y2)
+    al2 = -(iw[2, 0] * y0 + iw[2, 1] * y1 + iw[2, 2] * y2)
+    _skew_into(al0, al1, al2, sa)
+    for i in range(3):
+        for j in range(3):
+            kin[i, j] = sa[i, j] + (wx[i, 0] * wx[0, j] + wx[i, 1] * wx[1, j] + wx[i, 2] * wx[2, j])
     rmax = 0.0
     for i in range(k):
         # acc = kin r_i + a_rel (as _mv(kin, r[i]) + a_rel, without the two arrays)
@@ -521,22 +582,33 @@ def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel,
         b[3 * i + 1] = acc0 + stab[3 * i + 1]
         b[3 * i + 2] = acc1 + stab[3 * i + 2]
         rmax = max(rmax, math.sqrt(r0 * r0 + r1 * r1 + r2 * r2))
-    gm, gf = _jacobians(r, slide, sdir, mu_d)
+    _jacobians_into(r, slide, sdir, mu_d, gm, gf)
     # A = G_m M⁻¹ G_fᵀ through the 6 × 6 inverse mass (rank ≤ 6): H = G_f,ang I_w⁻¹ᵀ
     # (3k × 3), then A_pq = G_m,lin,p · G_f,lin,q / m + G_m,ang,p · H_q
-    n3 = 3 * k
-    H = np.zeros((n3, 3))
     for q in range(n3):
         for c in range(3):
             H[q, c] = iw[c, 0] * gf[q, 3] + iw[c, 1] * gf[q, 4] + iw[c, 2] * gf[q, 5]
-    A = np.empty((n3, n3))
     inv_m = 1.0 / mass
     for p in range(n3):
         for q in range(n3):
             A[p, q] = (gm[p, 0] * gf[q, 0] + gm[p, 1] * gf[q, 1] + gm[p, 2] * gf[q, 2]) * inv_m + (
                 gm[p, 3] * H[q, 0] + gm[p, 4] * H[q, 1] + gm[p, 5] * H[q, 2]
             )
-    return A, b, gf, (w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) * rmax
+    return (w0 * w0 + w1 * w1 + w2 * w2) * rmax
+
+
+@njit(cache=True)
+def _skew_into(w0, w1, w2, s):
+    """s = :func:`_skew` (w) in place (its zeros included)."""
+    s[0, 0] = 0.0
+    s[0, 1] = -w2
+    s[0, 2] = w1
+    s[1, 0] = w2
+    s[1, 1] = 0.0
+    s[1, 2] = -w0
+    s[2, 0] = -w1
+    s[2, 1] = w0
+    s[2, 2] = 0.0
 
 
 @njit(cache=True)
@@ -948,8 +1020,10 @@ def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir):
     n_answers = 0
     f = np.zeros(3 * k)
     a = b.copy()
-    f1 = f.copy()
-    a1 = a.copy()
+    # (f and a are rebound, never written in place, before an answer is accepted: the
+    # fallback answer can share their arrays)
+    f1 = f
+    a1 = a
     scale = np.ones(3 * k)
     bmax = 0.0
     for x in b:
@@ -1425,20 +1499,52 @@ def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
 
 @njit(cache=True)
 def _forces(
-    R, lm, prm, inertia_inv, nodes, idx, slide, sdir, stab, a_load, ap, active, prev_force, mu_vec, info, diag
+    R,
+    lm,
+    prm,
+    inertia_inv,
+    nodes,
+    idx,
+    slide,
+    sdir,
+    stab,
+    a_load,
+    ap,
+    active,
+    prev_force,
+    mu_vec,
+    info,
+    diag,
+    fws,
+    status,
 ):
-    """Total force (3,), torque (3,) at a state; False when the active-set guess failed."""
+    """Total force (3,), torque (3,) at a state; False when the active-set guess failed.
+
+    ``fws``: float scratch of :func:`_forces_work` (k) floats, ``status``: (k,) int scratch —
+    reused by the calls of one step (the contact problem's arrays are not kept)."""
     m = prm[P_MASS]
     k = idx.size
     F = m * a_load
     tau = np.zeros(3)
     if k == 0:
         return F, tau, True
-    A, b, gf, cons = contact_problem(
-        R, lm, inertia_inv, m, nodes[idx], slide, sdir, stab, a_load - ap, prm[P_MU_D]
+    n3 = 3 * k
+    A = fws[0 : n3 * n3].reshape((n3, n3))
+    o = n3 * n3
+    b = fws[o : o + n3]
+    o += n3
+    gf = fws[o : o + 6 * n3].reshape((n3, 6))
+    o += 6 * n3
+    tdir = fws[o : o + 2 * k].reshape((k, 2))
+    o += 2 * k
+    a_rel = fws[o : o + 3]
+    o += 3
+    for c in range(3):
+        a_rel[c] = a_load[c] - ap[c]
+    cons = _contact_problem_into(
+        R, lm, inertia_inv, m, nodes, idx, slide, sdir, stab, a_rel, prm[P_MU_D], A, b, gf, fws[o:]
     )
-    status = np.empty(k, dtype=np.int64)
-    tdir = np.zeros((k, 2))
+    tdir[:] = 0.0
     for a in range(k):
         s = active[idx[a]]
         if slide[a]:
@@ -1469,8 +1575,9 @@ def _forces(
     for p in range(3 * k):
         for j in range(6):
             wrench[j] += gf[p, j] * f[p]
-    F = F + wrench[:3]
-    tau = wrench[3:].copy()
+    for c in range(3):
+        F[c] = F[c] + wrench[c]  # F + wrench[:3]
+        tau[c] = wrench[3 + c]
     if diag:
         fmin = 0.0
         amin = 0.0
@@ -1489,6 +1596,14 @@ def _forces(
         info[I_CONE] = cone
         info[I_NRES] = 1.0
     return F, tau, True
+
+
+@njit(cache=True)
+def _forces_work(k):
+    """Floats of :func:`_forces`' scratch for k contacts: A, b, G_f, the friction directions,
+    a_rel, and :func:`_contact_problem_into`'s work."""
+    n3 = 3 * k
+    return n3 * n3 + n3 + 6 * n3 + 2 * k + 3 + (9 * n3 + 3 * k + 45)
 
 
 @njit(cache=True)
@@ -1574,6 +1689,8 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     )
     k = idx.size
     mu_vec = np.full(k, prm[P_MU_S])
+    fws = np.empty(_forces_work(k))
+    fst = np.empty(k, dtype=np.int64)
     F0, tau0, ok = _forces(
         R0,
         l0,
@@ -1591,46 +1708,54 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
         mu_vec,
         info,
         True,
+        fws,
+        fst,
     )
     if not ok:
         return STEP_GENERAL
-    W0R0 = _mm(_skew(w0), R0)
-    Fp = F0.copy()
-    taup = tau0.copy()
+    # the step's small arrays, allocated once (the array expressions in the comments are
+    # evaluated element by element, the same operations in the same order)
+    eye = np.eye(3)
+    wk = np.empty((10, 3, 3))
+    Sw, SR, Rn, Rp, W0R0, R1 = wk[5], wk[6], wk[7], wk[0:5], wk[8], wk[9]
+    vecs = np.empty((6, 3))
+    x1, v1, l1, vn, xn, ln = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5]
+    half_dt = 0.5 * dt
+    # W0R0 = _mm(_skew(w0), R0)
+    _skew_into(w0[0], w0[1], w0[2], Sw)
+    _mm_into(Sw, R0, W0R0)
     same = pred[0] > 0 and pred[1] == t0 and pred[2] == dt and pred_idx[0] == k
     if same:
         for a in range(k):
             if pred_idx[1 + a] != idx[a]:
                 same = False
                 break
-    if same:
-        for c in range(3):
-            Fp[c] = 2.0 * F0[c] - pred[3 + c]
-            taup[c] = 2.0 * tau0[c] - pred[6 + c]
-    vp = v0 + 0.5 * dt * (F0 + Fp) / m
-    lp = l0 + 0.5 * dt * (tau0 + taup)
-    x1 = x0 + 0.5 * dt * (v0 + vp)
-    v1 = vp
-    R1 = _mm(_cayley(dt * w0), R0)
-    l1 = lp
+    for c in range(3):
+        # predictor: Fp = 2 F0 − F(last step) when the contact set is the same, else F0
+        fp = 2.0 * F0[c] - pred[3 + c] if same else F0[c]
+        tp = 2.0 * tau0[c] - pred[6 + c] if same else tau0[c]
+        v1[c] = v0[c] + half_dt * (F0[c] + fp) / m  # vp = v0 + 0.5 Δt (F0 + Fp) / m
+        l1[c] = l0[c] + half_dt * (tau0[c] + tp)  # lp = l0 + 0.5 Δt (τ0 + τp)
+    for c in range(3):
+        x1[c] = x0[c] + half_dt * (v0[c] + v1[c])  # x0 + 0.5 Δt (v0 + vp)
+    # R1 = _mm(_cayley(dt * w0), R0), _cayley(w) = _solve3(I − s, I + s), s = 0.5 [w]×
+    _skew_into(dt * w0[0], dt * w0[1], dt * w0[2], Sw)
+    a1, b1 = Rp[1], Rp[2]
+    for i in range(3):
+        for j in range(3):
+            sij = 0.5 * Sw[i, j]
+            a1[i, j] = eye[i, j] - sij
+            b1[i, j] = eye[i, j] + sij
+    _solve3_into(a1, b1, Rp[4], Rp[3])
+    _mm_into(Rp[3], R0, R1)
     vscale = max(_norm3(v0), _norm3(a_load0) * dt, 1e-300)
     lscale = max(_norm3(l0), prm[P_LREF] * vscale, 1e-300)
     itol = prm[P_ITOL]
     orth = prm[P_ORTH]
-    eye = np.eye(3)
     its = 0
     converged = False
     F1 = F0
     tau1 = tau0
-    # the iterate's buffers (updated in place: the arithmetic of the array expressions
-    # in the comments, element by element)
-    vn = np.empty(3)
-    xn = np.empty(3)
-    ln = np.empty(3)
-    wk = np.empty((8, 3, 3))
-    Sw, SR, Rn, Rp = wk[5], wk[6], wk[7], wk[0:5]
-    Sw[:] = 0.0
-    half_dt = 0.5 * dt
     for it in range(1, int(prm[P_ITER]) + 1):
         its = it
         F1, tau1, ok = _forces(
@@ -1650,6 +1775,8 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
             mu_vec,
             info,
             False,
+            fws,
+            fst,
         )
         if not ok:
             return STEP_GENERAL
