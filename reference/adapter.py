@@ -251,6 +251,16 @@ def compiled_excitation(exc: Any, g: float) -> tuple[np.ndarray, np.ndarray] | N
     return spec, (np.ascontiguousarray(np.concatenate(data)) if data else np.zeros(1))
 
 
+def _compiled_load(own: tuple[np.ndarray, np.ndarray], t: float) -> np.ndarray:
+    """The non-contact load (3,) m/s² at t (s) by :func:`kernel.excitation_load` of the
+    layout and samples ``own`` (:func:`compiled_excitation`)."""
+    from pbr_xval.reference import kernel
+
+    out = np.empty(3)
+    kernel.excitation_load(own[0], own[1], float(t), out)
+    return out
+
+
 @functools.cache
 def _compiler_versions() -> dict[str, str]:
     """numba's and llvmlite's versions, read from the installed metadata (importing numba takes
@@ -517,6 +527,12 @@ class ReferenceEngine(EngineBase):
             )
             rest_prm = np.array([rest_v, t_exc_end, size, dt_nom, float(body.mass)])
             own = compiled_excitation(exc, g) if blocks and COMPILED_EXCITATION else None
+            if own is not None:
+                # the steps outside the blocks (impacts, general solves) ask for the load
+                # directly (no table is planned): the kernel's evaluation, the same numbers
+                # as load_direct (tests/reference/test_compiled_excitation.py), ~50× cheaper
+                assert isinstance(load, _StepLoad)
+                load.direct = functools.partial(_compiled_load, own)
             bps_arr = np.array(bps, dtype=float)
             slow_once = False
             while not stop and t < duration - 1e-12 * dt_nom:

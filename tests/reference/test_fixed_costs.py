@@ -95,3 +95,25 @@ def test_account_block_impacts_equals_segments() -> None:
     assert one.stats.iteration_nonconverged == seg.stats.iteration_nonconverged
     assert one.stats.selection_reverted == seg.stats.selection_reverted == 1
     assert one.last_gmin == seg.last_gmin
+
+
+def test_compiled_load_equals_direct_scalar_calls() -> None:
+    """The load of the steps outside the blocks (adapter._compiled_load) is the engine's
+    g − a(t) for a scalar t bit for bit (signed zeros included), as load_direct gave it."""
+    from pbr_xval.motion.base import Excitation3D, ScaledMotion
+    from pbr_xval.motion.pulses import OneSine
+    from pbr_xval.motion.records import Record
+
+    rng = np.random.default_rng(11)
+    rec = Record(3.0 * np.sin(np.linspace(0.0, 12.0, 300)) + 0.5 * rng.standard_normal(300), 0.01, 0.1)
+    g = 9.81
+    for exc in (
+        Excitation3D(rec, azimuth=0.7),
+        Excitation3D(OneSine(1.3, 1.0), azimuth=0.0, vertical=ScaledMotion(OneSine(2.0, 3.0), -0.5)),
+    ):
+        spec = adapter.compiled_excitation(exc, g)
+        assert spec is not None
+        ts = np.concatenate([rng.uniform(-0.1, exc.duration + 0.3, 2000), [0.0, 0.1, exc.duration]])
+        for t in ts.tolist():
+            want = np.array([0.0, 0.0, -g]) - np.asarray(exc.acceleration(t), dtype=float)
+            assert adapter._compiled_load(spec, t).tobytes() == want.tobytes()
