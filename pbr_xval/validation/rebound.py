@@ -75,6 +75,8 @@ __all__ = [
 
 #: committed scanned-rock scenarios: label → path relative to the repository root
 SPECIMENS = {"SP1": "examples/validation/sp1.toml", "SP2": "examples/validation/sp2.toml"}
+#: energy barriers per rock label (:func:`barrier`), computed once per process
+_BARRIERS: dict[str, dict[str, float]] = {}
 #: the control rock ``prism``: a two-edge asymmetric section (x, z), m, extruded over y ∈ [−0.2, 0.2] m
 PRISM_SECTION = ((-0.12, 0.0), (0.28, 0.0), (0.12, 1.0), (-0.12, 1.0))
 #: a half-cycle whose peak |θ| stays below this (rad) is contact chatter, not rocking
@@ -343,6 +345,34 @@ def first_landing_3d(scene: Any, section: Section, side: int) -> dict[str, float
     }
 
 
+def barrier(scene: Any, azimuth_deg: float) -> tuple[float, float]:
+    """(critical tilt rad, energy barrier J) of the rock tipped toward the horizontal direction at
+    ``azimuth_deg`` (° from +x): the COM's rise from rest to where it passes over its contact."""
+    from pbr_xval.geometry.stability import critical_tilt, hull_vertices
+    from pbr_xval.quaternions import rotation_about
+
+    hv = hull_vertices(scene.rock.mesh.vertices)
+    c = scene.rock.com
+    az = math.radians(azimuth_deg)
+    d = np.array([math.cos(az), math.sin(az), 0.0])
+    a = critical_tilt(hv, c, d)
+    if not math.isfinite(a):
+        return math.nan, math.nan
+    p = (hv - c) @ rotation_about(np.cross([0.0, 0.0, 1.0], d), a).T
+    rise = -float(p[:, 2].min()) - float(c[2] - hv[:, 2].min())
+    return a, scene.rock.mass * scene.gravity * rise
+
+
+def weakest_barrier(scene: Any, step_deg: float = 1.0) -> tuple[float, float, float]:
+    """(azimuth °, critical tilt rad, barrier J) of the smallest barrier on a ``step_deg`` grid."""
+    best = (math.nan, math.nan, math.inf)
+    for az in np.arange(0.0, 360.0, step_deg):
+        a, e = barrier(scene, float(az))
+        if e < best[2]:
+            best = (float(az), a, e)
+    return best
+
+
 # ------------------------------------------------------------------ measurement
 @dataclass
 class ImpactMeasurement:
@@ -552,6 +582,14 @@ def run_one(
                      "geometry_toppled": top})  # fmt: skip
     diag = traj.diagnostics
     landing = first_landing_3d(scene, sec, side)
+    if specimen not in _BARRIERS:  # the rock's, not the run's: once per rock
+        az = math.degrees(scene.azimuth)
+        waz, wa, we = weakest_barrier(scene)
+        _BARRIERS[specimen] = {
+            "+d_J": barrier(scene, az)[1], "-d_J": barrier(scene, az + 180.0)[1],
+            "weakest_azimuth_deg": waz, "weakest_alpha_deg": math.degrees(wa), "weakest_J": we, "grid_deg": 1.0,
+        }  # fmt: skip
+    rec["barriers"] = _BARRIERS[specimen]
     rec.update(
         first_landing={"measured": meas.first_landing_kept, **landing},
         energy_start_J=e_start,
@@ -589,6 +627,9 @@ def report_lines(rec: dict[str, Any]) -> list[str]:
             *(rec["first_landing"].get(k, math.nan) for k in ("planar", "point", "edge"))),
         f"cycle {tag} energy kept per half-cycle (geometric mean of {len(hc)}) measured {hm:.3f} geometry {hg:.3f}; "
         f"lost per cycle measured {1 - hm * hm:.3f} geometry {1 - hg * hg:.3f}",
+        "barrier {} along the shaking +{:.1f} J -{:.1f} J; weakest {:.2f} J at {:.0f} deg (alpha {:.2f} deg; 1 deg grid)".format(
+            tag, rec["barriers"]["+d_J"], rec["barriers"]["-d_J"], rec["barriers"]["weakest_J"],
+            rec["barriers"]["weakest_azimuth_deg"], rec["barriers"]["weakest_alpha_deg"]),
         f"motion {tag} toppled {rec['toppled']} peak roll {math.degrees(rec['peak_roll_rad']):.2f} deg "
         f"yaw {math.degrees(rec['peak_yaw_rad']):.2f} deg COM off-plane {1e3 * rec['peak_offplane_com_m']:.1f} mm "
         f"slip {1e3 * (rec['slip_max_m'] or 0):.1f} mm flights {rec['flights']} regime {rec['regime']}",
