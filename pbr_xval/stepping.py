@@ -634,6 +634,12 @@ def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
     With ``scene.theta0`` ≠ 0 the rock starts tilted by θ0 about the support edge toward
     sign(θ0)·d (the pivot), rotating at ``scene.omega0`` about that edge; otherwise at rest.
+    A scanned base can have hull vertices beyond that edge a little above the pedestal (SP2: a
+    vertex 0.1 mm below the pedestal at θ0 = −0.002 rad, 0.3 mm at −0.005): the tilt would push
+    them into it, and the rock then rests on the lowest of them instead — it is lifted until
+    that vertex is on the pedestal (the pose of rolling about the edge and then onto the vertex,
+    to first order in θ0), and rotates about it. Lifts below round-off (1e-9 of the hull's size)
+    are not made, so a block tilted about its edge is unchanged.
     """
     com = scene.rock.com.astype(float).copy()
     th, om = float(scene.theta0), float(scene.omega0)
@@ -642,7 +648,8 @@ def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
         return com, np.eye(3), np.zeros(3), np.zeros(3)
     from pbr_xval.geometry.stability import hull_vertices, support_points
 
-    sp = support_points(hull_vertices(scene.rock.mesh.vertices))
+    hv = hull_vertices(scene.rock.mesh.vertices)
+    sp = support_points(hv)
     x = (sp - com) @ d
     side = 1.0 if (th > 0 or (th == 0 and om > 0)) else -1.0
     px = x.max() if side > 0 else x.min()
@@ -650,6 +657,12 @@ def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     pivot[2] = sp[:, 2].min()
     rot = rotation_about(e, th)
     com_t = pivot + rot @ (com - pivot)
+    z = com_t[2] + (hv - com) @ rot[2]
+    lift = pivot[2] - float(z.min())
+    if lift > 1e-9 * max(1.0, float(np.ptp(hv))):
+        k = int(np.argmin(z))
+        com_t = com_t + np.array([0.0, 0.0, lift])
+        pivot = com_t + rot @ (hv[k] - com)
     omega = om * e
     vel = np.cross(omega, com_t - pivot)
     return com_t, rot, vel, omega

@@ -107,6 +107,34 @@ def test_initial_pose_pivots_about_the_edge() -> None:
     assert np.allclose(vel, 0) and np.allclose(om, 0)
 
 
+def test_initial_pose_rests_on_a_vertex_beyond_the_edge() -> None:
+    """A hull vertex just beyond the pivot edge and 0.1 mm above the pedestal (a scanned base):
+    tilting about the edge would push it 0.5 mm into the pedestal; the rock rests on it instead,
+    tilted by the same θ0, nothing below the pedestal."""
+    import dataclasses
+
+    import trimesh
+
+    from pbr_xval.stepping import rotation_about
+
+    scene = compile_scene(housner_scenario(excitation={"type": "none"}, initial={"theta": 0.01}))
+    box = scene.rock.mesh.vertices
+    extra = np.array([[0.26, 0.0, 1e-4]])  # 0.06 m beyond the +x edge, 0.1 mm up: lands at θ ≈ 1.7e-3
+    mesh = trimesh.convex.convex_hull(np.vstack([box, extra]))
+    rock = dataclasses.replace(scene.rock, mesh=mesh)
+    tilted = dataclasses.replace(scene, rock=rock)
+    com, rot, _vel, _om = initial_pose(tilted)
+    assert np.allclose(rot, rotation_about(scene.rocking_axis, 0.01), atol=0)
+    z = com[2] + (mesh.vertices - scene.rock.com) @ rot[2]
+    assert z.min() == pytest.approx(0.0, abs=1e-12)  # on the pedestal, not in it
+    lowest = mesh.vertices[np.argmin(z)]
+    assert np.allclose(lowest, extra[0])  # the rock rests on the vertex beyond the edge
+    # the plain tilt about the edge would have put it 0.06 sin θ − 1e-4 cos θ ≈ 0.5 mm deep
+    old = initial_pose(scene)
+    z_old = old[0][2] + (extra[0] - scene.rock.com) @ old[1][2]
+    assert z_old == pytest.approx(1e-4 * math.cos(0.01) - 0.06 * math.sin(0.01), rel=1e-9)
+
+
 def test_block_pose_conversion_is_the_engines_own() -> None:
     """The adapters read quaternions per sample and convert them per block: the matrices must be
     the engines' own conversions bit for bit (mju_quat2Mat, getMatrixFromQuaternion)."""
