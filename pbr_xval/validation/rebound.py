@@ -23,8 +23,9 @@ engine's default profile, the committed ``timestep`` 1e-3 s, and 1e-4 s to separ
 time-step dissipation from the contact model) with no excitation and a free-rocking start:
 the rock leaves its rest pose on one side's face pivot at the angular rate that would carry a
 lossless polygon rocker to ``fraction`` × α of that side. (A tilted start, ``theta_over_alpha``,
-rotates the rock about the face pivot, which on a scanned hull pushes the next hull vertices
-below the pedestal: MuJoCo then launches the rock; so the start is a rate at θ = 0.) From the
+rotated the rock about the face pivot, which on a scanned hull pushed the next hull vertices
+below the pedestal — MuJoCo then launched the rock — until commit 0d28830 lifted such a start
+onto the vertex; the start here stays a rate at θ = 0, which needs no pose at all.) From the
 trajectory: the mechanical energy E(t) = ½ ω·I ω + ½ m v² + m g Δz (v by central differences
 of the COM), the rocking angle θ, and per face impact (θ crossing 0) the energy just before and
 just after it while the rock is on its face pivots, converted to ω⁺/ω⁻ with each side's I_O;
