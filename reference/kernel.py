@@ -210,19 +210,11 @@ def _lu_solve_inplace(m, x):
 
 @njit(cache=True)
 def _solve3(a, b):
-    """a⁻¹ b for (3, 3) matrices (cofactor inverse; a is near a rotation or near I here)."""
-    inv = np.empty((3, 3))
-    inv[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
-    inv[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
-    inv[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
-    inv[1, 0] = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
-    inv[1, 1] = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
-    inv[1, 2] = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
-    inv[2, 0] = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
-    inv[2, 1] = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
-    inv[2, 2] = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
-    det = a[0, 0] * inv[0, 0] + a[0, 1] * inv[1, 0] + a[0, 2] * inv[2, 0]
-    return _mm(inv, b) / det
+    """a⁻¹ b for (3, 3) matrices (cofactor inverse; a is near a rotation or near I here):
+    :func:`_solve3_into` into fresh arrays."""
+    out = np.empty((3, 3))
+    _solve3_into(a, b, np.empty((3, 3)), out)
+    return out
 
 
 @njit(cache=True)
@@ -236,15 +228,10 @@ def _cayley(w):
 @njit(cache=True)
 def _cayley_project(r_new, r_old):
     """Projection of r_new onto SO(3) through the Cayley parameter of r_new r_oldᵀ
-    (see :func:`dynamics.cayley_project`)."""
-    e = np.eye(3)
-    dr = _mmt(r_new, r_old)
-    # w = (ΔR − I)(ΔR + I)⁻¹  ⇔  (ΔR + I)ᵀ wᵀ = (ΔR − I)ᵀ
-    wt = _solve3((dr + e).T.copy(), (dr - e).T.copy())
-    w = wt.T
-    ws = 0.5 * (w - w.T)
-    q = _solve3(e - ws, e + ws)
-    return _mm(q, r_old)
+    (see :func:`dynamics.cayley_project`): :func:`_cayley_project_into` into fresh arrays."""
+    out = np.empty((3, 3))
+    _cayley_project_into(r_new, r_old, np.eye(3), np.empty((5, 3, 3)), out)
+    return out
 
 
 @njit(cache=True)
@@ -261,8 +248,8 @@ def _norm3(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
-# In-place forms of the helpers above for the direct iteration of :func:`step` (no allocation
-# per iteration): the same operations in the same order, so the same numbers bit for bit.
+# In-place forms for the direct iteration of :func:`step` (no allocation per iteration);
+# :func:`_solve3` and :func:`_cayley_project` above call them with fresh arrays.
 @njit(cache=True)
 def _mm_into(a, b, c):
     """c = a @ b for (3, 3) matrices (c distinct from a and b); :func:`_mm`'s arithmetic."""
@@ -273,7 +260,8 @@ def _mm_into(a, b, c):
 
 @njit(cache=True)
 def _solve3_into(a, b, inv, out):
-    """out = a⁻¹ b (3, 3), :func:`_solve3`'s arithmetic; ``inv`` (3, 3) scratch."""
+    """out = a⁻¹ b (3, 3) by the cofactor inverse (:func:`_solve3` is this into fresh arrays);
+    ``inv`` (3, 3) scratch."""
     inv[0, 0] = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
     inv[0, 1] = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
     inv[0, 2] = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
@@ -291,8 +279,9 @@ def _solve3_into(a, b, inv, out):
 
 @njit(cache=True)
 def _cayley_project_into(r_new, r_old, e, wk, out):
-    """out = :func:`_cayley_project` (r_new, r_old), its arithmetic; ``e`` the (3, 3) identity,
-    ``wk`` (5, 3, 3) scratch; ``out`` distinct from r_new and r_old."""
+    """out = the projection of r_new onto SO(3) through the Cayley parameter of r_new r_oldᵀ
+    (:func:`_cayley_project` is this into fresh arrays); ``e`` the (3, 3) identity, ``wk``
+    (5, 3, 3) scratch; ``out`` distinct from r_new and r_old."""
     dr, a1, b1, wt, inv = wk[0], wk[1], wk[2], wk[3], wk[4]
     for i in range(3):
         for j in range(3):
