@@ -704,30 +704,6 @@ def _basis_into(a, rtol, q, norms, used, out):
     return r
 
 
-#: :func:`_clamped_solve` treats its block as symmetric (one basis for its column and row
-#: spaces) when max |S_pq − S_qp| ≤ this × max |S_pq| (A = G_m M⁻¹ G_fᵀ has G_m = G_f on the
-#: rows of sticking contacts and on the normal rows of non-sliding ones: its asymmetry there
-#: is round-off, ~1e-16 relative; dynamic friction folded into a sliding normal's column, or
-#: the impending-slip friction into its normal's, is O(μ) relative)
-SYMMETRIC_RTOL = 1e-12
-
-
-@njit(cache=True)
-def _is_symmetric(s, rtol):
-    """max |s_pq − s_qp| ≤ ``rtol`` max |s_pq| for a square ``s``."""
-    n = s.shape[0]
-    big = 0.0
-    for p in range(n):
-        for q in range(n):
-            big = max(big, abs(s[p, q]))
-    tol = rtol * big
-    for p in range(n):
-        for q in range(p + 1, n):
-            if not abs(s[p, q] - s[q, p]) <= tol:  # (a NaN: not symmetric)
-                return False
-    return True
-
-
 @njit(cache=True)
 def _clamped_solve(A, b, status, scale):
     """Clamped rows of ``status`` solved for the forces f with A_EE f_E = −b_E in the
@@ -762,23 +738,18 @@ def _clamped_solve(A, b, status, scale):
     # column and row spaces of the (rank-r) block, x = Qr (Qcᵀ A Qr)⁻¹ Qcᵀ rhs — the part of
     # rhs outside the column space (which no force can reach) is left over, and x has no
     # component along the redundant (null-space) directions
+    subt = ws[nn : 2 * nn].reshape((ne, ne))
+    for p in range(ne):
+        for q in range(ne):
+            subt[p, q] = sub[q, p]
     used = np.empty(ne, dtype=np.bool_)
     scratch = ws[2 * nn : 3 * nn].reshape((ne, ne))
     norms = ws[8 * nn + ne : 8 * nn + 2 * ne]
     qc_buf = ws[3 * nn : 4 * nn].reshape((ne, ne))
+    qr_buf = ws[4 * nn : 5 * nn].reshape((ne, ne))
     r = _basis_into(sub, 1e-10, scratch, norms, used, qc_buf)
-    if _is_symmetric(sub, SYMMETRIC_RTOL):
-        # the row space is the column space (sticking and plain normal rows: A = G M⁻¹ Gᵀ on
-        # them, symmetric up to round-off): one basis serves for both
-        qr_buf = qc_buf
-    else:
-        subt = ws[nn : 2 * nn].reshape((ne, ne))
-        for p in range(ne):
-            for q in range(ne):
-                subt[p, q] = sub[q, p]
-        qr_buf = ws[4 * nn : 5 * nn].reshape((ne, ne))
-        if _basis_into(subt, 1e-10, scratch, norms, used, qr_buf) != r:
-            return f, False
+    if _basis_into(subt, 1e-10, scratch, norms, used, qr_buf) != r:
+        return f, False
     if r == 0:
         return f, True
     qc = qc_buf[:, :r]
