@@ -242,11 +242,6 @@ class Recorder:
             fast = math.pi
         self._cos_fast = math.cos(min(fast, math.pi))
         self._physical = crit.criterion == "physical"
-        # α(φ)'s periodic table, built once (stability.alpha_at builds it per call): the
-        # physical decision asks for it at every step past the smallest critical tilt
-        stab = self.scene.rock.stability
-        self._alpha_xp = np.append(stab.phi, 2 * np.pi)
-        self._alpha_fp = np.append(stab.alpha, stab.alpha[0])
         self._cos_down = math.cos(math.radians(crit.down_angle_deg))
         self._t_free = float(self.scene.excitation_end)
         self._past = False
@@ -536,17 +531,6 @@ class Recorder:
         self.events.append(Event("toppled", t_cross, {"decided_at": t, "rule": rule}))
         return bool(self.scene.toppling.stop_on_topple)
 
-    def _past_critical(self, rel: np.ndarray) -> bool:
-        """:meth:`Scene.past_critical` of the relative rotation ``rel`` (3, 3), its arithmetic
-        (``stability.alpha_at``'s periodic interpolation) with the α(φ) table of :meth:`start`."""
-        top = rel[:, 2]
-        tilt = math.acos(max(-1.0, min(1.0, float(top[2]))))
-        if tilt < 1e-9:
-            return False
-        phi = math.atan2(top[1], top[0])
-        p = np.asarray(phi, dtype=float) % (2 * np.pi)
-        return tilt >= float(np.interp(p, self._alpha_xp, self._alpha_fp))
-
     def _physical_step(self, t: float, c: list[float], r: list[float], cos_tilt: float) -> bool:
         """One step of the physical toppling decision (see :class:`pbr_xval.scenario.Toppling`).
 
@@ -556,7 +540,7 @@ class Recorder:
         if c[2] < 0.0:
             return self._decide(t, "down: the centre of mass dropped below the pedestal top")
         rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
-        past = self._past_critical(rel)
+        past = self.scene.past_critical(rel)
         if past and not self._past:
             self._t_cross = t
         self._past = past

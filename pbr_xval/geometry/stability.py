@@ -30,6 +30,7 @@ A pose is **at rest** when the COM's vertical passes strictly inside the support
 from __future__ import annotations
 
 import hashlib
+from functools import cached_property
 
 import numpy as np
 from scipy.optimize import brentq
@@ -348,11 +349,17 @@ class StabilityTable:
             best, best_phi = float(r.fun), float(r.x)
         return best, best_phi % (2 * np.pi)
 
+    @cached_property
+    def _alpha_periodic(self) -> tuple[np.ndarray, np.ndarray]:
+        """(φ, α) closed over the circle (φ = 2π appended, α(2π) = α(0)): :meth:`alpha_at`'s table,
+        built once — the engines' recorder asks for α(φ) at every step past the smallest critical
+        tilt (:meth:`pbr_xval.scene.Scene.past_critical`)."""
+        return np.append(self.phi, 2 * np.pi), np.append(self.alpha, self.alpha[0])
+
     def alpha_at(self, phi: np.ndarray | float) -> np.ndarray:
         """Critical tilt (rad) at directions ``phi`` (rad), periodic linear interpolation."""
         p = np.asarray(phi, dtype=float) % (2 * np.pi)
-        xp = np.append(self.phi, 2 * np.pi)
-        fp = np.append(self.alpha, self.alpha[0])
+        xp, fp = self._alpha_periodic
         return np.interp(p, xp, fp)
 
     def toppling_accel(self, g: float = 9.81) -> np.ndarray:
