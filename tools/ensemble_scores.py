@@ -107,7 +107,6 @@ def _p_ensemble(folder: str, tests: list[str], share: bool = False) -> np.ndarra
     from pbr_xval.validation.ensemble import ensemble_counts, ensemble_p
 
     members = pd.read_csv(f"{folder}/ensemble_members.csv", dtype={"test": str})
-    members["toppled"] = members["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
     if share:
         k, n, _ = ensemble_counts(members, tests)
         return np.where(n > 0, k / np.maximum(n, 1), np.nan)

@@ -238,20 +238,24 @@ def chunk_rows(store: Path, chunks: list[Any]) -> pd.DataFrame:
 
 
 def ensemble_counts(member_rows: pd.DataFrame, tests: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per test (in ``tests`` order): members that toppled (k), members that ran (n), failed runs."""
+    """Per test (in ``tests`` order): members that toppled (k), members that ran (n), failed runs.
+
+    ``toppled`` may be booleans (the store) or their text (``ensemble_members.csv`` read back:
+    "True", "1", "1.0" count as toppled)."""
     k = np.zeros(len(tests), dtype=int)
     n_ok = np.zeros(len(tests), dtype=int)
     n_bad = np.zeros(len(tests), dtype=int)
     if member_rows.empty:
         return k, n_ok, n_bad
-    g = member_rows.groupby("test")
+    toppled = member_rows["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
+    g = member_rows.assign(toppled=toppled).groupby("test")
     for j, t in enumerate(tests):
         if t not in g.groups:
             continue
         sub = g.get_group(t)
         ok = sub["status"] == "ok"
         n_ok[j], n_bad[j] = int(ok.sum()), int((~ok).sum())
-        k[j] = int(sub.loc[ok, "toppled"].astype(bool).sum())
+        k[j] = int(sub.loc[ok, "toppled"].sum())
     return k, n_ok, n_bad
 
 

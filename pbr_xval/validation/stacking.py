@@ -53,9 +53,7 @@ def engine_shares(members: pd.DataFrame, tests: Sequence[Any]) -> tuple[np.ndarr
         raise ValueError(f"ensemble members: columns {sorted(missing)} missing (expected {sorted(need)})")
     from .ensemble import ensemble_counts
 
-    m = members.copy()
-    m["test"] = m["test"].astype(str)
-    m["toppled"] = m["toppled"].astype(str).str.lower().isin(("true", "1", "1.0"))
+    m = members.assign(test=members["test"].astype(str))
     engines = sorted(m.loc[m["status"] == "ok", "engine"].unique())
     idx = [str(t) for t in tests]
     p = np.full((len(idx), len(engines)), np.nan)
