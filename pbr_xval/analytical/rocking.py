@@ -42,6 +42,7 @@ __all__ = [
     "rocking_rhs",
     "simulate_rocking",
     "theta_ratio",
+    "two_pivot_rebound",
 ]
 
 Side = Literal["left", "right"]
@@ -59,6 +60,28 @@ def _side_sign(side: Side | int) -> int:
 
 def _side_name(s: int) -> Side:
     return "right" if s > 0 else "left"
+
+
+def two_pivot_rebound(inertia: float, mass: float, r_old: Any, r_new: Any) -> float:
+    """ω⁺/ω⁻ at a perfectly inelastic impact that moves the pivot from P1 to P2 (no slip, no bounce).
+
+    Angular momentum about the new pivot is conserved (Housner 1963, for any two pivots).
+
+    Parameters
+    ----------
+    inertia : I_G about the rocking axis through the COM, kg·m².
+    mass : kg.
+    r_old, r_new : (2,) or (3,) m, the vectors G − P1 and G − P2 (from each pivot to the COM)
+        in the rocking plane (components along the rocking axis must be removed by the caller);
+        the pivots' positions relative to the COM (both signs flipped) give the same value.
+
+    Returns
+    -------
+    float: (I_G + m r₁·r₂) / (I_G + m |r₂|²). Negative when the new pivot would make the rock
+    rotate backwards (it then does not transfer to P2).
+    """
+    r1, r2 = np.asarray(r_old, dtype=float), np.asarray(r_new, dtype=float)
+    return float((inertia + mass * r2 @ r1) / (inertia + mass * r2 @ r2))  # (m r₂)·r₁, (m r₂)·r₂
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -136,9 +159,7 @@ class TwoPivotBody:
         [I_G + m (r_G − r_P)·(r_G − r_C)] / [I_G + m |r_G − r_P|²] with r_G − r_P = −P, r_G − r_C = −C.
         """
         s = _side_sign(landing_side)
-        P = self.pivot(s)
-        C = self.pivot(-s)
-        return float((self.inertia_com + self.mass * P @ C) / (self.inertia_com + self.mass * P @ P))
+        return two_pivot_rebound(self.inertia_com, self.mass, self.pivot(-s), self.pivot(s))
 
 
 def theta_ratio(body: TwoPivotBody, theta: np.ndarray | float) -> np.ndarray:

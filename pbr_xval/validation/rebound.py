@@ -65,6 +65,8 @@ from typing import Any
 
 import numpy as np
 
+from pbr_xval.analytical.rocking import two_pivot_rebound
+
 __all__ = [
     "ImpactMeasurement",
     "RockingMeasurement",
@@ -88,25 +90,6 @@ IMPACT_GUARD_S = 0.01
 
 
 # ------------------------------------------------------------------- closed forms
-def two_pivot_rebound(inertia: float, mass: float, r_old: Any, r_new: Any) -> float:
-    """ω⁺/ω⁻ at a perfectly inelastic impact that moves the pivot from P1 to P2 (no slip, no bounce).
-
-    Parameters
-    ----------
-    inertia : I_G about the rocking axis through the COM, kg·m².
-    mass : kg.
-    r_old, r_new : (2,) or (3,) m, the vectors G − P1 and G − P2 (from each pivot to the COM)
-        in the rocking plane (components along the rocking axis must be removed by the caller).
-
-    Returns
-    -------
-    float: (I_G + m r₁·r₂) / (I_G + m |r₂|²). Negative when the new pivot would make the rock
-    rotate backwards (it then does not transfer to P2).
-    """
-    r1, r2 = np.asarray(r_old, dtype=float), np.asarray(r_new, dtype=float)
-    return float((inertia + mass * (r1 @ r2)) / (inertia + mass * (r2 @ r2)))
-
-
 def two_pivot_energy_ratio(inertia: float, mass: float, r_old: Any, r_new: Any) -> float:
     """Kinetic energy after / before the impact of :func:`two_pivot_rebound` (-, symmetric in P1, P2).
 
