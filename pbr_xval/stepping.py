@@ -380,14 +380,13 @@ class Recorder:
         if m == 0:
             return False, 0
         rest_stop = False
-        if self._rest_on and not self._toppled and float(t[-1]) >= self._t_free - self._eps_t:
-            j = self._rest_row(t, com, rot, omega)
-            if j is not None:
-                m = j + 1
-                t, com, rot, omega = t[:m], com[:m], rot[:m], omega[:m]
-                ncon = None if ncon is None else ncon[:m]
-                pen = None if pen is None else pen[:m]
-                force_last = rest_stop = True
+        j = self.rest_hold(t, com, rot, omega)
+        if j is not None:
+            m = j + 1
+            t, com, rot, omega = t[:m], com[:m], rot[:m], omega[:m]
+            ncon = None if ncon is None else ncon[:m]
+            pen = None if pen is None else pen[:m]
+            force_last = rest_stop = True
         zx, zy, zz = self._z0l
         x0, y0, z0 = self._com0l
         with np.errstate(invalid="ignore", over="ignore"):
@@ -436,6 +435,18 @@ class Recorder:
             self.stopped_at_rest = float(t[-1])
             return True, m
         return False, m
+
+    def rest_hold(self, t: np.ndarray, com: np.ndarray, rot: np.ndarray, omega: np.ndarray) -> int | None:
+        """``toppling.stop_at_rest`` for m consecutive steps (t (m,) s, com (m, 3) m, rot (m, 9),
+        omega (m, 3) rad/s): the first of them at which the rest hold completes, else None.
+
+        Off (None, nothing fed) unless ``stop_at_rest`` is set, the rock has not toppled and the
+        last step is at or after the excitation's end. :meth:`record_block` applies it to its
+        rows; an engine that records step by step with :meth:`record` feeds it every step
+        itself, so that both paths stop at the same step."""
+        if not self._rest_on or self._toppled or float(t[-1]) < self._t_free - self._eps_t:
+            return None
+        return self._rest_row(t, com, rot, omega)
 
     def _rest_row(self, t: np.ndarray, com: np.ndarray, rot: np.ndarray, omega: np.ndarray) -> int | None:
         """``toppling.stop_at_rest``: the first row of a block at which the rock has been at rest

@@ -251,22 +251,6 @@ def compiled_excitation(exc: Any, g: float) -> tuple[np.ndarray, np.ndarray] | N
     return spec, (np.ascontiguousarray(np.concatenate(data)) if data else np.zeros(1))
 
 
-def _rest_reached(rec: Any, t: float, com: np.ndarray, rot: np.ndarray, omega: Any) -> bool:
-    """``toppling.stop_at_rest`` for one row of the step-by-step loop (t s, COM (3,) m, R (3, 3),
-    ω (3,) rad/s): whether the recorder's rest hold (``Recorder._rest_row``) completes at it —
-    the rule :meth:`Recorder.record_block` applies to the rows of a block, so that every step
-    of the run feeds the hold, whichever path made it."""
-    if not rec._rest_on or rec._toppled or t < rec._t_free - rec._eps_t:
-        return False
-    row = rec._rest_row(
-        np.array([t]),
-        np.asarray(com, dtype=float).reshape(1, 3),
-        np.asarray(rot, dtype=float).reshape(1, 9),
-        np.asarray(omega, dtype=float).reshape(1, 3),
-    )
-    return row is not None
-
-
 def _compiled_load(own: tuple[np.ndarray, np.ndarray], t: float) -> np.ndarray:
     """The non-contact load (3,) m/s² at t (s) by :func:`kernel.excitation_load` of the
     layout and samples ``own`` (:func:`compiled_excitation`)."""
@@ -730,7 +714,15 @@ class ReferenceEngine(EngineBase):
                 # every output time and at every step once the rock is near toppling
                 # toppling.stop_at_rest on this step's row, as Recorder.record_block applies it
                 # to the rows of a block (Recorder.record, below, does not)
-                rest_stop = _rest_reached(rec, t, com_rel, state.R, stepper.last_omega)
+                rest_stop = (
+                    rec.rest_hold(
+                        np.array([t]),
+                        np.asarray(com_rel, dtype=float).reshape(1, 3),
+                        np.asarray(state.R, dtype=float).reshape(1, 9),
+                        np.asarray(stepper.last_omega, dtype=float).reshape(1, 3),
+                    )
+                    is not None
+                )
                 if (
                     last
                     or rest_stop
