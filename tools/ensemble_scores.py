@@ -4,7 +4,8 @@ Reads the output folders of ``pbr-xval validate … --ensemble`` (their ``outcom
 prints, per folder:
 
 * ``rows``: one Markdown table row per model — the ensemble (its P recomputed from the folder's
-  ``ensemble_members.csv`` with today's definition, and the share k / n beside it) and the deterministic
+  ``ensemble_members.csv`` with today's definition, and the share k / n beside it), each engine's members
+  alone (the same definition on that engine's members of the same runs), and the deterministic
   engines from the folder's ``outcomes.csv``; the logistic baselines out of fold by record (4 record folds) fitted on *all* 196
   calibration tests of the specimen; the transferred logistic law fitted on every test of the other
   specimen — all scored on the folder's tests (so a run on a subset, ``--tests``, is compared with the
@@ -82,6 +83,8 @@ def rows(label: str, specimen: str, folder: str) -> None:
         "ensemble": sc(_p_ensemble(folder, tests)),
         "ensemble (share k/n)": sc(_p_ensemble(folder, tests, share=True)),
     }
+    for e, (pe, ne) in _p_per_engine(folder, tests).items():  # each engine's members alone
+        out[f"ensemble, {e} members only ({ne.min()}–{ne.max()} per test)"] = sc(pe)
     for e in ("mujoco", "pybullet"):
         if f"pred_{e}" in oc:
             out[e] = sc(oc.loc[ex.test[m], f"pred_{e}"].to_numpy(float))
@@ -111,6 +114,20 @@ def _p_ensemble(folder: str, tests: list[str], share: bool = False) -> np.ndarra
         k, n, _ = ensemble_counts(members, tests)
         return np.where(n > 0, k / np.maximum(n, 1), np.nan)
     return ensemble_p(members, tests)[0]
+
+
+def _p_per_engine(folder: str, tests: list[str]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Per engine of the ensemble: (P, n) — P (tests,) = (k + ½) / (n + 1) from that engine's ok members
+    alone, n (tests,) its member count. A test where the adaptive stop left an engine without a member
+    takes P = ½ (the Jeffreys prior mean), so every row scores every test."""
+    from pbr_xval.validation.ensemble import ensemble_counts
+
+    members = pd.read_csv(f"{folder}/ensemble_members.csv", dtype={"test": str})
+    out = {}
+    for e in sorted(members.loc[members.status == "ok", "engine"].unique()):
+        k, n, _ = ensemble_counts(members[members.engine == e], tests)
+        out[str(e)] = ((k + 0.5) / (n + 1.0), n)
+    return out
 
 
 def _stacked(folder: str, oc: pd.DataFrame) -> np.ndarray:
