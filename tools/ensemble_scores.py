@@ -15,6 +15,8 @@ prints, per folder:
   ``pbr_xval.validation.stacking`` instead of the ensemble as run).
 * ``split``: the Brier of the ensemble, the deterministic engines and the logistic baselines of the folder's
   ``outcomes.csv`` on a list of tests (e.g. the 66 screening tests) and on the folder's other tests.
+* ``chance``: over the tests of ``ensemble_sp<N>_robustness.json`` records, how many tests' P would leave
+  the base run's interval by Monte-Carlo noise alone (``exits_by_chance``), beside the records' exits.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -24,6 +26,7 @@ Usage::
     python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)"
     python tools/ensemble_scores.py boot /tmp/ens/sp1 "p_logistic(lnPGA,lnPGV)" stacked   # the stacked mixture
     python tools/ensemble_scores.py cost /tmp/ens/sp1
+    python tools/ensemble_scores.py chance examples/validation/robustness/ensemble_sp{1,2}_robustness.json
     python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
@@ -201,7 +204,29 @@ def split(folder: str, tests: str) -> None:
         print(f"{folder} {name} ({int(m.sum())} tests): Brier {briers}")
 
 
+def chance(*records: str) -> None:
+    """Tests whose P would leave the base interval by Monte-Carlo noise alone, over the robustness records'
+    tests (``pbr_xval.validation.robustness.exits_by_chance``, their ensemble settings), against the
+    records' measured exits."""
+    from pbr_xval.validation.robustness import exits_by_chance
+
+    counts, seen = [], {}
+    for f in records:
+        d = json.loads(Path(f).read_text())
+        counts += [(r["base"]["k"], r["base"]["n"]) for r in d["per_test"].values()]
+        for v, ts in d["outside_base_interval"].items():
+            seen[v] = seen.get(v, 0) + len(ts)
+        ens = d["ensemble"]
+    x = exits_by_chance(counts, members=ens["members"], batch=ens["batch"], half_width=ens["half_width"])
+    lo, med, hi = np.percentile(x, [2.5, 50, 97.5])
+    print(
+        f"{len(counts)} tests: by chance alone (fresh members) {x.mean():.2f} leave the base interval "
+        f"(median {med:.0f}, 95 % {lo:.0f}–{hi:.0f}; P(≤ 1) {np.mean(x <= 1):.2f}, P(0) {np.mean(x == 0):.2f}); "
+        f"measured: {seen}"
+    )
+
+
 if __name__ == "__main__":
     print(f"# {platform.processor() or platform.machine()}, load {os.getloadavg()[0]:.1f}")
     cmd, *args = sys.argv[1:]
-    {"rows": rows, "boot": boot, "cost": cost, "split": split}[cmd](*args)  # type: ignore[operator]
+    {"rows": rows, "boot": boot, "cost": cost, "split": split, "chance": chance}[cmd](*args)  # type: ignore[operator]

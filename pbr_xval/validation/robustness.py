@@ -46,6 +46,7 @@ import shutil
 import subprocess
 import sys
 import tomllib
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -407,6 +408,55 @@ def ensemble_summary(
         out["margin_vs_best_baseline"] = {v: 1.0 - scores[v]["brier"] / bs[best] for v in results}
         out["margin_worst_case_measured"] = 1.0 - rng_m["brier"][1] / bs[best]
         out["margin_worst_case"] = 1.0 - rng["brier"][1] / bs[best]
+    return out
+
+
+def exits_by_chance(
+    counts: Sequence[tuple[int, int]],
+    *,
+    members: int = 16,
+    batch: int = 4,
+    half_width: float | None = 0.1,
+    draws: int = 2000,
+    seed: int = 0,
+) -> np.ndarray:
+    """How many tests' P would leave the base run's Jeffreys 95 % interval by Monte-Carlo noise alone.
+
+    The null hypothesis of "is P(topple) the same on any machine within its stated interval": no machine
+    effect at all, and a second run that draws *fresh* members (independent Bernoulli outcomes with the
+    test's true probability p, p drawn from the base run's posterior Beta(k + ½, n − k + ½)) under the same
+    adaptive rule as ``validate --ensemble`` (batches of ``batch`` up to ``members``, stopping on
+    :func:`pbr_xval.catalog.predict.stop_rule` with ``half_width``; ``None``: always ``members``). A real
+    perturbation (a tilt of 1e-9 rad, other BLAS kernels) keeps the design's members and flips only the
+    chaotic ones, so it should leave the interval no more often than this.
+
+    counts : per test the base run's (k, n). Returns (draws,) int: per Monte-Carlo repetition, the number
+    of tests whose second P = (k' + ½) / (n' + 1) lies outside the base's interval.
+    """
+    from pbr_xval.catalog.predict import Estimate, stop_rule
+    from pbr_xval.uncertainty import jeffreys_interval, p_topple
+
+    table: dict[tuple[int, int], tuple[float, float, float, bool]] = {}
+    for n in range(members + 1):
+        for k in range(n + 1):
+            lo, hi = jeffreys_interval(k, n) if n else (0.0, 1.0)
+            est = Estimate(k=k, n=n, p=p_topple(k, n), lo=lo, hi=hi)
+            table[k, n] = (est.p, lo, hi, n >= members or stop_rule(est, half_width) is not None)
+    rng = np.random.default_rng(seed)
+    out = np.zeros(draws, dtype=int)
+    for k0, n0 in counts:
+        _, lo, hi, _ = table[k0, n0]
+        ps = rng.beta(k0 + 0.5, n0 - k0 + 0.5, size=draws)
+        for i, p in enumerate(ps):
+            k = n = 0
+            while True:
+                step = min(batch, members - n) if half_width is not None else members
+                k += int(rng.binomial(step, p))
+                n += step
+                pk, _, _, stop = table[k, n]
+                if stop:
+                    break
+            out[i] += not lo <= pk <= hi
     return out
 
 

@@ -131,3 +131,38 @@ def test_kernel_variants_run_validate_with_another_cpus_blas_kernels(
     import json
 
     assert json.loads((tmp_path / "o" / "robustness.json").read_text())["fragile_tests"] == ["2"]
+
+
+def test_exits_by_chance_matches_the_beta_binomial_for_a_fixed_ensemble() -> None:
+    """Without the adaptive stop, a fresh ensemble of n members has k' ~ BetaBinomial(n, k + ½, n − k + ½)
+    (p from the base run's posterior): the expected number of tests whose P leaves the base's Jeffreys
+    interval is a finite sum (scipy.stats.betabinom), the independent reference for the Monte Carlo."""
+    import numpy as np
+    from scipy.stats import betabinom
+
+    from pbr_xval.uncertainty import jeffreys_interval, p_topple
+    from pbr_xval.validation.robustness import exits_by_chance
+
+    counts = [(0, 4), (2, 4), (11, 16), (3, 8), (8, 8), (1, 12)]
+    expected = 0.0
+    for k, n in counts:
+        lo, hi = jeffreys_interval(k, n)
+        pmf = betabinom.pmf(np.arange(n + 1), n, k + 0.5, n - k + 0.5)
+        expected += sum(w for j, w in enumerate(pmf) if not lo <= p_topple(j, n) <= hi)
+    draws = 20000
+    x = [exits_by_chance([c], members=c[1], half_width=None, draws=draws, seed=1) for c in counts]
+    mean = float(sum(xi.mean() for xi in x))
+    se = float(np.sqrt(sum(xi.var() for xi in x) / draws))
+    assert abs(mean - expected) < 4 * se + 1e-9, (mean, expected, se)
+    assert expected > 0.1  # the check can fail: these counts leave their intervals by chance
+
+
+def test_exits_by_chance_adaptive_stops_like_validate() -> None:
+    """A test decided by 4 agreeing members (4 of 4) has interval [0.57, 1]: a fresh run of the adaptive
+    rule that again starts with 4 topples stops at P = 0.9, inside; one that does not goes on. The counts
+    are whole numbers between 0 and the number of tests."""
+    from pbr_xval.validation.robustness import exits_by_chance
+
+    x = exits_by_chance([(4, 4), (0, 4), (8, 16)], draws=500, seed=0)
+    assert x.dtype.kind == "i" and x.min() >= 0 and x.max() <= 3
+    assert 0 < x.mean() < 1.5
