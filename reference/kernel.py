@@ -610,9 +610,17 @@ def _check(A, b, f, status, mu, cons_tol, tdir):
     dissipation, as the cone solver's :func:`cone._disc_local_solve`): a_t = −λ ŝ with
     λ ≥ 0, i.e. its component across ŝ and its component along ŝ within the clamped rows'
     tolerance."""
+    a = np.empty(b.size)
+    return _check_into(A, b, f, status, mu, cons_tol, tdir, a), a
+
+
+@njit(cache=True)
+def _check_into(A, b, f, status, mu, cons_tol, tdir, a):
+    """:func:`_check` with the accelerations written into the caller's ``a`` (3k,); returns ok."""
     k = status.size
     n3 = b.size
-    a = b.copy()
+    for p in range(n3):
+        a[p] = b[p]  # b.copy()
     for p in range(n3):
         for q in range(n3):
             a[p] += A[p, q] * f[q]
@@ -629,22 +637,22 @@ def _check(A, b, f, status, mu, cons_tol, tdir):
         fn = f[3 * i]
         if st > 0:
             if abs(a[3 * i]) > tol + cons_tol:
-                return False, a
+                return False
         if st == 1:
             if abs(a[3 * i + 1]) > tol + cons_tol or abs(a[3 * i + 2]) > tol + cons_tol:
-                return False, a
+                return False
         if fn < -fscale:
-            return False, a
+            return False
         if st == 0 and a[3 * i] < -tol:
-            return False, a
+            return False
         if st == 1 and math.hypot(f[3 * i + 1], f[3 * i + 2]) > mu[i] * fn * (1 + 1e-12) + fscale:
-            return False, a
+            return False
         if st == 3:
             s0, s1 = tdir[i, 0], tdir[i, 1]
             ax, ay = a[3 * i + 1], a[3 * i + 2]
             if abs(s0 * ay - s1 * ax) > tol + cons_tol or s0 * ax + s1 * ay > tol + cons_tol:
-                return False, a
-    return True, a
+                return False
+    return True
 
 
 @njit(cache=True)
@@ -708,9 +716,36 @@ def _basis_into(a, rtol, q, norms, used, out):
 def _clamped_solve(A, b, status, scale):
     """Clamped rows of ``status`` solved for the forces f with A_EE f_E = −b_E in the
     least-squares sense, minimising ‖f_E / scale_E‖ among the solutions (``scale``: (3k,)
-    weights, 1 for the plain minimum-norm split)."""
+    weights, 1 for the plain minimum-norm split): :func:`_clamped_solve_into` into fresh
+    arrays; returns (f (3k,), ok)."""
+    n3 = 3 * status.size
+    f = np.empty(n3)
+    ok = _clamped_solve_into(
+        A,
+        b,
+        status,
+        scale,
+        np.empty(_clamped_work(n3)),
+        np.empty(n3, dtype=np.int64),
+        np.empty(n3, dtype=np.int64),
+        f,
+    )
+    return f, ok
+
+
+@njit(cache=True)
+def _clamped_work(n3):
+    """Floats of :func:`_clamped_solve_into`'s scratch for 3k = ``n3`` rows."""
+    return 8 * n3 * n3 + 5 * n3
+
+
+@njit(cache=True)
+def _clamped_solve_into(A, b, status, scale, ws, rows, used, f):
+    """:func:`_clamped_solve` into the caller's buffers: ``ws`` (≥ :func:`_clamped_work` (3k)
+    floats), ``rows`` and ``used`` ((3k,) int scratch), the forces in ``f`` (3k,); returns ok.
+    Every sum is accumulated term by term in the order of the loops over its index (the
+    products of the block, of its bases and of the right-hand side)."""
     k = status.size
-    rows = np.empty(3 * k, dtype=np.int64)
     ne = 0
     for i in range(k):
         if status[i] > 0:
@@ -720,12 +755,12 @@ def _clamped_solve(A, b, status, scale):
             rows[ne] = 3 * i + 1
             rows[ne + 1] = 3 * i + 2
             ne += 2
-    f = np.zeros(3 * k)
+    for p in range(3 * k):
+        f[p] = 0.0
     if ne == 0:
-        return f, True
-    # the work arrays as views of one allocation (the small solves run a few times per step)
+        return True
+    # the work arrays as views of the caller's scratch
     nn = ne * ne
-    ws = np.empty(8 * nn + 5 * ne)
     sub = ws[0:nn].reshape((ne, ne))
     rhs = ws[8 * nn : 8 * nn + ne]
     # symmetric scaling: (S A S) u = −S b, f = S u (S = diag(scale_E))
@@ -742,18 +777,16 @@ def _clamped_solve(A, b, status, scale):
     for p in range(ne):
         for q in range(ne):
             subt[p, q] = sub[q, p]
-    used = np.empty(ne, dtype=np.bool_)
+    use = used[0:ne]
     scratch = ws[2 * nn : 3 * nn].reshape((ne, ne))
     norms = ws[8 * nn + ne : 8 * nn + 2 * ne]
-    qc_buf = ws[3 * nn : 4 * nn].reshape((ne, ne))
-    qr_buf = ws[4 * nn : 5 * nn].reshape((ne, ne))
-    r = _basis_into(sub, 1e-10, scratch, norms, used, qc_buf)
-    if _basis_into(subt, 1e-10, scratch, norms, used, qr_buf) != r:
-        return f, False
+    qc = ws[3 * nn : 4 * nn].reshape((ne, ne))  # basis columns 0 … r − 1
+    qr = ws[4 * nn : 5 * nn].reshape((ne, ne))
+    r = _basis_into(sub, 1e-10, scratch, norms, use, qc)
+    if _basis_into(subt, 1e-10, scratch, norms, use, qr) != r:
+        return False
     if r == 0:
-        return f, True
-    qc = qc_buf[:, :r]
-    qr = qr_buf[:, :r]
+        return True
     aq = ws[5 * nn : 5 * nn + ne * r].reshape((ne, r))  # sub @ qr
     for p in range(ne):
         for c in range(r):
@@ -762,25 +795,26 @@ def _clamped_solve(A, b, status, scale):
                 acc += sub[p, q] * qr[q, c]
             aq[p, c] = acc
     K = ws[6 * nn : 6 * nn + r * r].reshape((r, r))  # qcᵀ sub qr
-    K[:] = 0.0
     g = ws[8 * nn + 2 * ne : 8 * nn + 2 * ne + r]  # qcᵀ rhs
-    g[:] = 0.0
     for c1 in range(r):
+        acc = 0.0
         for p in range(ne):
-            g[c1] += qc[p, c1] * rhs[p]
-            for c2 in range(r):
-                K[c1, c2] += qc[p, c1] * aq[p, c2]
+            acc += qc[p, c1] * rhs[p]
+        g[c1] = acc
+        for c2 in range(r):
+            acc = 0.0
+            for p in range(ne):
+                acc += qc[p, c1] * aq[p, c2]
+            K[c1, c2] = acc
     y = g  # solved in place (K and g are not needed after)
     if not _lu_solve_inplace(K, y):
-        return f, False
-    x = ws[8 * nn + 3 * ne : 8 * nn + 4 * ne]
-    x[:] = 0.0
+        return False
     for p in range(ne):
+        acc = 0.0
         for c in range(r):
-            x[p] += qr[p, c] * y[c]
-    for p in range(ne):
-        f[rows[p]] = x[p] * scale[rows[p]]
-    return f, True
+            acc += qr[p, c] * y[c]
+        f[rows[p]] = acc * scale[rows[p]]
+    return True
 
 
 @njit(cache=True)
@@ -961,6 +995,32 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
         return ok, f, a, st
     ok, f, a, st, _ = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td)
     return ok, f, a, st
+
+
+@njit(cache=True)
+def _active_set_work(n3):
+    """Floats of :func:`_active_set_solve_into`'s scratch for 3k = ``n3`` rows."""
+    return 3 * n3 + _clamped_work(n3)
+
+
+@njit(cache=True)
+def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, ws, iws):
+    """:func:`active_set_solve` with its common case in the caller's scratch (``ws``: ≥
+    :func:`_active_set_work` (3k) floats, ``iws``: (≥ 6k,) int): a guess without impending
+    slip whose first solve verifies — the first attempt of :func:`_active_set_rounds`, the
+    same operations; the answer's arrays are views of the scratch, its status the guess
+    itself. Any other case is :func:`active_set_solve` (which repeats that first solve)."""
+    n3 = b.size
+    if max_rounds > 0 and _count_slip(status) == 0:
+        f = ws[0:n3]
+        a = ws[n3 : 2 * n3]
+        scale = ws[2 * n3 : 3 * n3]
+        for p in range(n3):
+            scale[p] = 1.0
+        if _clamped_solve_into(A, b, status, scale, ws[3 * n3 :], iws[0:n3], iws[n3 : 2 * n3], f):
+            if _check_into(A, b, f, status, mu, cons_tol, tdir, a):
+                return True, f, a, status
+    return active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir)
 
 
 @njit(cache=True)
@@ -1391,12 +1451,28 @@ def lcp_select(M, q, ref):
 @njit(cache=True)
 def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
     """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω —
-    of the candidate nodes ``cand`` (the others: gap +inf, r and velocity left unset)."""
+    of the candidate nodes ``cand`` (the others: gap +inf, r and velocity left unset):
+    :func:`_kinematics_into` into fresh arrays."""
     n = nodes.shape[0]
     r = np.empty((n, 3))
-    w = _omega(R, inertia_inv, lm)
     gaps = np.full(n, np.inf)
     vel = np.empty((n, 3))
+    w0, w1, w2 = _kinematics_into(
+        x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy, r, gaps, vel
+    )
+    w = np.empty(3)
+    w[0] = w0
+    w[1] = w1
+    w[2] = w2
+    return r, gaps, vel, w
+
+
+@njit(cache=True)
+def _kinematics_into(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy, r, gaps, vel):
+    """The lever arms, gaps and velocities of :func:`_kinematics` of the candidate nodes
+    ``cand`` into the caller's ``r`` (N, 3), ``gaps`` (N,) and ``vel`` (N, 3) — the other
+    nodes' entries are not written — and ω (:func:`_omega3`) as three floats."""
+    w0, w1, w2 = _omega3(R, inertia_inv, lm)
     for c in range(cand.size):
         i = cand[c]
         for j in range(3):
@@ -1406,13 +1482,13 @@ def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
         gaps[i] = x[2] + r[i, 2] - d[2]
         if ped_kind == 1 and (abs(px) > hx or abs(py) > hy):
             gaps[i] = np.inf
-        vx = v[0] + w[1] * r[i, 2] - w[2] * r[i, 1] - vp[0]
-        vy = v[1] + w[2] * r[i, 0] - w[0] * r[i, 2] - vp[1]
-        vz = v[2] + w[0] * r[i, 1] - w[1] * r[i, 0] - vp[2]
+        vx = v[0] + w1 * r[i, 2] - w2 * r[i, 1] - vp[0]
+        vy = v[1] + w2 * r[i, 0] - w0 * r[i, 2] - vp[1]
+        vz = v[2] + w0 * r[i, 1] - w1 * r[i, 0] - vp[2]
         vel[i, 0] = vz
         vel[i, 1] = vx
         vel[i, 2] = vy
-    return r, gaps, vel, w
+    return w0, w1, w2
 
 
 @njit(cache=True)
@@ -1505,16 +1581,22 @@ def _forces(
     info,
     diag,
     fws,
-    status,
+    iws,
+    F,
+    tau,
+    wrench,
 ):
-    """Total force (3,), torque (3,) at a state; False when the active-set guess failed.
+    """Total force F (3,), torque τ (3,) at a state, written into the caller's ``F``, ``tau``
+    and returned; False when the active-set guess failed.
 
-    ``fws``: float scratch of :func:`_forces_work` (k) floats, ``status``: (k,) int scratch —
-    reused by the calls of one step (the contact problem's arrays are not kept)."""
+    ``fws``: float scratch of :func:`_forces_work` (k) floats, ``iws``: (≥ 7k,) int scratch,
+    ``wrench`` (6,) float scratch — reused by the calls of one step (the contact problem's
+    arrays are not kept)."""
     m = prm[P_MASS]
     k = idx.size
-    F = m * a_load
-    tau = np.zeros(3)
+    for c in range(3):
+        F[c] = m * a_load[c]  # m * a_load
+        tau[c] = 0.0
     if k == 0:
         return F, tau, True
     n3 = 3 * k
@@ -1528,6 +1610,9 @@ def _forces(
     o += 2 * k
     a_rel = fws[o : o + 3]
     o += 3
+    sws = fws[o : o + _active_set_work(n3)]
+    o += _active_set_work(n3)
+    status = iws[0:k]
     for c in range(3):
         a_rel[c] = a_load[c] - ap[c]
     cons = _contact_problem_into(
@@ -1551,7 +1636,7 @@ def _forces(
                 else:
                     status[a] = 1
     info[I_SOLVES] += 1
-    ok, f, acc, st = active_set_solve(A, b, status, mu_vec, 2.0 * cons, k + 2, tdir)
+    ok, f, acc, st = _active_set_solve_into(A, b, status, mu_vec, 2.0 * cons, k + 2, tdir, sws, iws[k:])
     if not ok:
         return F, tau, False
     info[I_FAST] += 1
@@ -1560,7 +1645,7 @@ def _forces(
     for a in range(k):
         for c in range(3):
             prev_force[idx[a], c] = f[3 * a + c]
-    wrench = np.zeros(6)
+    wrench[:] = 0.0
     for p in range(3 * k):
         for j in range(6):
             wrench[j] += gf[p, j] * f[p]
@@ -1590,9 +1675,9 @@ def _forces(
 @njit(cache=True)
 def _forces_work(k):
     """Floats of :func:`_forces`' scratch for k contacts: A, b, G_f, the friction directions,
-    a_rel, and :func:`_contact_problem_into`'s work."""
+    a_rel, :func:`_active_set_solve_into`'s scratch and :func:`_contact_problem_into`'s work."""
     n3 = 3 * k
-    return n3 * n3 + n3 + 6 * n3 + 2 * k + 3 + (9 * n3 + 3 * k + 45)
+    return n3 * n3 + n3 + 6 * n3 + 2 * k + 3 + _active_set_work(n3) + (9 * n3 + 3 * k + 45)
 
 
 @njit(cache=True)
@@ -1618,8 +1703,59 @@ def _end_gaps(x1, R1, d1, nodes, cand, full, ped_kind, hx, hy, eps, out_gaps):
     return gmin, ncont
 
 
+#: floats of :func:`_step`'s fixed workspace beyond the 7N of the start kinematics
+STEP_WORK_FIXED = 18 + 9 + 90 + 18 + 18
+
+
+@njit(cache=True)
+def _step_work(n_nodes, k_max):
+    """(float workspace, int workspace) of :func:`_step` for N nodes and up to ``k_max``
+    contacts (a step with more allocates its own contact-sized arrays)."""
+    nf = 7 * n_nodes + STEP_WORK_FIXED + k_max + _forces_work(k_max)
+    return np.empty(nf), np.empty(max(7 * k_max, 1), dtype=np.int64)
+
+
 @njit(cache=True)
 def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out_sv, out_gaps, info):
+    """:func:`_step` with a fresh workspace (the engine's single steps)."""
+    swf, swi = _step_work(nodes.shape[0], 0)
+    return _step(
+        sv,
+        prm,
+        ext,
+        inertia_inv,
+        nodes,
+        cand,
+        active,
+        prev_force,
+        pred,
+        pred_idx,
+        out_sv,
+        out_gaps,
+        info,
+        swf,
+        swi,
+    )
+
+
+@njit(cache=True)
+def _step(
+    sv,
+    prm,
+    ext,
+    inertia_inv,
+    nodes,
+    cand,
+    active,
+    prev_force,
+    pred,
+    pred_idx,
+    out_sv,
+    out_gaps,
+    info,
+    swf,
+    swi,
+):
     """One constant-average-acceleration step t0 → t0 + Δt with direct iteration.
 
     Parameters
@@ -1640,6 +1776,8 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     pred_idx : (N + 1,) int, predictor contact ids (count first), read and written.
     out_sv : (18,) the state at t1 (written). out_gaps : (N,) node gaps at t1, m (written).
     info : (N_INFO,) statistics (layout ``I_*``, written).
+    swf, swi : float and int workspace of :func:`_step_work` (its contents are not read
+        before they are written; contact-sized parts beyond its ``k_max`` are allocated here).
 
     Returns
     -------
@@ -1659,13 +1797,39 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     t1 = t0 + dt
     ped_kind = int(prm[P_PED_KIND])
     hx, hy = prm[P_HX], prm[P_HY]
-    x0 = sv[0:3].copy()
-    v0 = sv[3:6].copy()
-    R0 = sv[6:15].reshape(3, 3).copy()
-    l0 = sv[15:18].copy()
+    nn = nodes.shape[0]
+    r0s = swf[0 : 3 * nn].reshape((nn, 3))
+    gaps0 = swf[3 * nn : 4 * nn]
+    vel0 = swf[4 * nn : 7 * nn].reshape((nn, 3))
+    o = 7 * nn
+    x0 = swf[o : o + 3]
+    v0 = swf[o + 3 : o + 6]
+    l0 = swf[o + 6 : o + 9]
+    R0 = swf[o + 9 : o + 18].reshape((3, 3))
+    for c in range(3):
+        x0[c] = sv[c]
+        v0[c] = sv[3 + c]
+        l0[c] = sv[15 + c]
+    for c in range(9):
+        R0[c // 3, c % 3] = sv[6 + c]
+    o += 18
+    eye = swf[o : o + 9].reshape((3, 3))
+    o += 9
+    wk = swf[o : o + 90].reshape((10, 3, 3))
+    o += 90
+    vecs = swf[o : o + 18].reshape((6, 3))
+    o += 18
+    F0 = swf[o : o + 3]
+    tau0 = swf[o + 3 : o + 6]
+    F1 = swf[o + 6 : o + 9]
+    tau1 = swf[o + 9 : o + 12]
+    wrench = swf[o + 12 : o + 18]
+    o += 18
     a_load0, a_load1 = ext[0], ext[1]
     d0, vp0, ap0, ap1, d1 = ext[2], ext[3], ext[4], ext[5], ext[6]
-    _, gaps0, vel0, w0 = _kinematics(x0, v0, R0, l0, inertia_inv, nodes, cand, d0, vp0, ped_kind, hx, hy)
+    w00, w01, w02 = _kinematics_into(
+        x0, v0, R0, l0, inertia_inv, nodes, cand, d0, vp0, ped_kind, hx, hy, r0s, gaps0, vel0
+    )
     if prm[P_IMPACT] > 0:
         eps = prm[P_EPS]
         v_imp = prm[P_VIMP]
@@ -1677,10 +1841,16 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
         gaps0, vel0, nodes, cand, prm[P_EPS], prm[P_VSEP], prm[P_VSLIP], prm[P_MU_D], dt, prm[P_REDUCE] > 0
     )
     k = idx.size
-    mu_vec = np.full(k, prm[P_MU_S])
-    fws = np.empty(_forces_work(k))
-    fst = np.empty(k, dtype=np.int64)
-    F0, tau0, ok = _forces(
+    if o + k + _forces_work(k) <= swf.size and 7 * k <= swi.size:
+        mu_vec = swf[o : o + k]
+        fws = swf[o + k :]
+        fst = swi
+    else:
+        mu_vec = np.empty(k)
+        fws = np.empty(_forces_work(k))
+        fst = np.empty(7 * k, dtype=np.int64)
+    mu_vec[:] = prm[P_MU_S]  # np.full(k, μ_s)
+    _, _, ok = _forces(
         R0,
         l0,
         prm,
@@ -1699,19 +1869,22 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
         True,
         fws,
         fst,
+        F0,
+        tau0,
+        wrench,
     )
     if not ok:
         return STEP_GENERAL
-    # the step's small arrays, allocated once (the array expressions in the comments are
+    # the step's small arrays, in the workspace (the array expressions in the comments are
     # evaluated element by element, the same operations in the same order)
-    eye = np.eye(3)
-    wk = np.empty((10, 3, 3))
+    for i in range(3):
+        for j in range(3):
+            eye[i, j] = 1.0 if i == j else 0.0
     Sw, SR, Rn, Rp, W0R0, R1 = wk[5], wk[6], wk[7], wk[0:5], wk[8], wk[9]
-    vecs = np.empty((6, 3))
     x1, v1, l1, vn, xn, ln = vecs[0], vecs[1], vecs[2], vecs[3], vecs[4], vecs[5]
     half_dt = 0.5 * dt
     # W0R0 = _mm(_skew(w0), R0)
-    _skew_into(w0[0], w0[1], w0[2], Sw)
+    _skew_into(w00, w01, w02, Sw)
     _mm_into(Sw, R0, W0R0)
     same = pred[0] > 0 and pred[1] == t0 and pred[2] == dt and pred_idx[0] == k
     if same:
@@ -1728,7 +1901,7 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     for c in range(3):
         x1[c] = x0[c] + half_dt * (v0[c] + v1[c])  # x0 + 0.5 Δt (v0 + vp)
     # R1 = _mm(_cayley(dt * w0), R0), _cayley(w) = _solve3(I − s, I + s), s = 0.5 [w]×
-    _skew_into(dt * w0[0], dt * w0[1], dt * w0[2], Sw)
+    _skew_into(dt * w00, dt * w01, dt * w02, Sw)
     a1, b1 = Rp[1], Rp[2]
     for i in range(3):
         for j in range(3):
@@ -1743,11 +1916,11 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     orth = prm[P_ORTH]
     its = 0
     converged = False
-    F1 = F0
-    tau1 = tau0
+    F1[:] = F0
+    tau1[:] = tau0
     for it in range(1, int(prm[P_ITER]) + 1):
         its = it
-        F1, tau1, ok = _forces(
+        _, _, ok = _forces(
             R1,
             l1,
             prm,
@@ -1766,6 +1939,9 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
             False,
             fws,
             fst,
+            F1,
+            tau1,
+            wrench,
         )
         if not ok:
             return STEP_GENERAL
@@ -1841,7 +2017,10 @@ def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_
     info[I_CONV] = 1.0 if converged else 0.0
     info[I_F1 : I_F1 + 3] = F1
     info[I_TAU1 : I_TAU1 + 3] = tau1
-    info[I_OMEGA : I_OMEGA + 3] = _omega(R1, inertia_inv, l1)
+    om0, om1, om2 = _omega3(R1, inertia_inv, l1)  # _omega(R1, inertia_inv, l1)
+    info[I_OMEGA] = om0
+    info[I_OMEGA + 1] = om1
+    info[I_OMEGA + 2] = om2
     # penetration check at the end of the step: over the candidates, or every node when the
     # step ended beyond their tilt or deeper than 2ε (then a non-candidate could be in band)
     full = R1[2, 2] < prm[P_COS_CAND] or cand.size == nodes.shape[0]
@@ -2044,6 +2223,7 @@ def step_block(
     full_active = np.empty(nn, dtype=active.dtype)
     full_force = np.empty((nn, 3))
     post = np.empty(18)
+    swf, swi = _step_work(nn, 8)
     after_imp = False  # the current step's retries start from the post-impact state
     cand = allc
     while True:
@@ -2090,8 +2270,22 @@ def step_block(
         info = rows_info[i]
         if after_imp:
             prm[P_IMPACT] = 0.0
-        code = step(
-            start, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
+        code = _step(
+            start,
+            prm,
+            ext,
+            inertia_inv,
+            nodes,
+            cand,
+            active,
+            prev_force,
+            pred,
+            pred_idx,
+            out,
+            gaps,
+            info,
+            swf,
+            swi,
         )
         prm[P_IMPACT] = 1.0
         impact = after_imp
@@ -2122,8 +2316,22 @@ def step_block(
             after_imp = True
             cand = _block_candidates(post, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
             prm[P_IMPACT] = 0.0
-            code = step(
-                post, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out, gaps, info
+            code = _step(
+                post,
+                prm,
+                ext,
+                inertia_inv,
+                nodes,
+                cand,
+                active,
+                prev_force,
+                pred,
+                pred_idx,
+                out,
+                gaps,
+                info,
+                swf,
+                swi,
             )
             prm[P_IMPACT] = 1.0
         gmin = info[I_GMIN]
