@@ -2093,25 +2093,42 @@ def excitation_load(exc, data, t, out):
 
 
 @njit(cache=True)
-def _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf):
+def _block_candidates(cur, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf, cached, bounds):
     """The candidate nodes of a step from the packed state ``cur`` (those of
-    :meth:`dynamics.RigidBodySolver.candidates`); sets ``prm[P_COS_CAND]``."""
+    :meth:`dynamics.RigidBodySolver.candidates`); sets ``prm[P_COS_CAND]``.
+
+    ``cached`` is the set this function last computed afresh, for the tilt bounds
+    ``bounds`` (2,): its largest ``cull_lim`` and the smallest one above it. A bound θ with
+    ``bounds[0]`` ≤ θ < ``bounds[1]`` passes exactly the same nodes, and ``cached`` is
+    returned; otherwise the set is computed and ``bounds`` updated. Returns (candidates,
+    True when computed afresh)."""
     if not cull:
-        return allc
+        return allc, False
     nn = nodes.shape[0]
     cz = min(1.0, max(-1.0, cur[14]))
     lmag = math.sqrt(cur[15] * cur[15] + cur[16] * cur[16] + cur[17] * cur[17])
     th = math.acos(cz) + 0.02 + 2.0 * dt * lmag * inv_lmin
     if th >= math.pi:
         prm[P_COS_CAND] = -2.0
-        return allc
+        return allc, False
+    prm[P_COS_CAND] = math.cos(th)
+    if bounds[0] <= th and th < bounds[1]:
+        return cached, False
     m = 0
+    lo = -np.inf
+    hi = np.inf
     for j in range(nn):
-        if cull_lim[j] <= th:
+        lim = cull_lim[j]
+        if lim <= th:
             cand_buf[m] = j
             m += 1
-    prm[P_COS_CAND] = math.cos(th)
-    return cand_buf[:m].copy()
+            if lim > lo:
+                lo = lim
+        elif lim < hi:
+            hi = lim
+    bounds[0] = lo
+    bounds[1] = hi
+    return cand_buf[:m].copy(), True
 
 
 @njit(cache=True)
@@ -2226,6 +2243,9 @@ def step_block(
     swf, swi = _step_work(nn, 8)
     after_imp = False  # the current step's retries start from the post-impact state
     cand = allc
+    # the candidates last computed and their tilt bounds (:func:`_block_candidates`)
+    cand_cache = allc
+    cand_bounds = np.array([np.inf, -np.inf])
     while True:
         i = r
         if own:
@@ -2255,7 +2275,11 @@ def step_block(
         if backs == 0:
             # a retry keeps the first attempt's candidates and P_COS_CAND, as
             # RigidBodySolver.candidates does (cached per start state, not per Δt)
-            cand = _block_candidates(start, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
+            cand, fresh = _block_candidates(
+                start, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf, cand_cache, cand_bounds
+            )
+            if fresh:
+                cand_cache = cand
             # the memory before the step's first attempt
             snap_n = cand.size
             for a in range(cand.size):
@@ -2314,7 +2338,11 @@ def step_block(
                 return i, code
             impact = True
             after_imp = True
-            cand = _block_candidates(post, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf)
+            cand, fresh = _block_candidates(
+                post, prm, dt, nodes, cull, cull_lim, inv_lmin, allc, cand_buf, cand_cache, cand_bounds
+            )
+            if fresh:
+                cand_cache = cand
             prm[P_IMPACT] = 0.0
             code = _step(
                 post,
