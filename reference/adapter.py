@@ -279,7 +279,7 @@ def _compiler_versions() -> dict[str, str]:
 def _record_impact(stepper: Any, rec: Any, t: float, info: dict[str, Any]) -> None:
     """Count a resolved impact (``info`` of ``resolve_impacts``) and record its event."""
     stepper.stats.impacts += 1
-    if np.isfinite(info["ratio"]):
+    if math.isfinite(info["ratio"]):
         stepper.stats.impact_ratios.append(info["ratio"])
     rec.events.append(Event("impact", t, info))
 

@@ -116,6 +116,8 @@ BAND_TOLERANCE = 1e-3
 # empty arguments of kernel.step_block for the mode not used
 _NO_EXC = np.zeros(0)
 _NO_LOADS = np.zeros((0, 2, 3))
+#: the count columns of a kernel step's info summed per block (:meth:`RigidBodySolver.account_block_impacts`)
+_COUNT_COLS = [kernel.I_SOLVES, kernel.I_FAST, kernel.I_CAYLEY, kernel.I_ITS, kernel.I_CONV]
 #: after a general resting solve, a sticking contact whose friction is within this fraction of
 #: the static cone's radius is guessed as impending slip (status 3) by the next active-set solve
 #: (a guess only, verified there; the 16-facet pyramid fallback reaches 98 % of the radius)
@@ -1065,24 +1067,25 @@ class RigidBodySolver:
         """Statistics and event data of an impact resolved by :func:`kernel.step_block`
         (its row ``row``, layout ``J_*``), as :meth:`resolve_impacts` records them."""
         st = self.stats
-        st.signorini_f.append(float(row[kernel.J_SIGF]))
-        st.signorini_a.append(float(row[kernel.J_SIGA]))
-        st.complementarity.append(float(row[kernel.J_COMPL]))
-        st.cone.append(float(row[kernel.J_CONE]))
-        if row[kernel.J_REVERTED]:
+        v = row.tolist()  # the row's values as Python floats (float(row[j]), one call)
+        st.signorini_f.append(v[kernel.J_SIGF])
+        st.signorini_a.append(v[kernel.J_SIGA])
+        st.complementarity.append(v[kernel.J_COMPL])
+        st.cone.append(v[kernel.J_CONE])
+        if v[kernel.J_REVERTED]:
             st.selection_reverted += 1
         w = row[kernel.J_W0 : kernel.J_W0 + 3].copy()
         nw = math.sqrt(float(w.dot(w)))
-        nw2 = float(row[kernel.J_W1])
+        nw2 = v[kernel.J_W1]
         return {
-            "v_n_min": float(row[kernel.J_VNMIN]),
-            "nodes": int(row[kernel.J_NODES]),
-            "hull_nodes": int(row[kernel.J_HULL]),
-            "impulse_nodes": int(row[kernel.J_IMPULSE]),
+            "v_n_min": v[kernel.J_VNMIN],
+            "nodes": int(v[kernel.J_NODES]),
+            "hull_nodes": int(v[kernel.J_HULL]),
+            "impulse_nodes": int(v[kernel.J_IMPULSE]),
             "omega_before": nw,
             "omega_after": nw2,
             "ratio": nw2 / nw if nw > 0 else float("nan"),
-            "v_n_after_min": float(row[kernel.J_VNAFTER]),
+            "v_n_after_min": v[kernel.J_VNAFTER],
         }
 
     def account_block(self, info: np.ndarray) -> None:
@@ -1108,14 +1111,15 @@ class RigidBodySolver:
             flagged = np.flatnonzero(imps[:, kernel.J_FLAG]).tolist()
             rows_imp = imps
         st = self.stats
-        its = info[:, kernel.I_ITS]
+        # the counts' column sums in one reduction (small integers: exact in any order)
+        tot = info[:, _COUNT_COLS].sum(axis=0).tolist()
         st.kernel_steps += m
-        st.lcp_solves += int(info[:, kernel.I_SOLVES].sum())
-        st.lcp_fast_path += int(info[:, kernel.I_FAST].sum())
-        st.cayley_projections += int(info[:, kernel.I_CAYLEY].sum())
-        st.iterations_total += int(its.sum())
-        st.iterations_max = max(st.iterations_max, int(its.max()))
-        st.iteration_nonconverged += int((info[:, kernel.I_CONV] == 0).sum())
+        st.lcp_solves += int(tot[0])
+        st.lcp_fast_path += int(tot[1])
+        st.cayley_projections += int(tot[2])
+        st.iterations_total += int(tot[3])
+        st.iterations_max = max(st.iterations_max, int(info[:, kernel.I_ITS].max()))
+        st.iteration_nonconverged += m - int(tot[4])
         has = info[:, kernel.I_NRES] != 0
         res = info[has]
         cols = (
