@@ -1,7 +1,8 @@
 """Issue 23, fifth pass: the per-run and per-step costs cut outside the kernel give the same
 answers as the code they replace — the critical-tilt test with α(φ)'s table built once against a
 freshly built table, the memoised hull of the side nodes against a fresh convex hull, and a
-block's one-pass statistics against the per-segment accounting."""
+block's one-pass statistics against the per-segment accounting; and (seventh pass) the memoised
+culling bounds."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
 from pbr_xval import conformance as conf
-from pbr_xval.reference import adapter, kernel
+from pbr_xval.reference import adapter, dynamics, kernel
 from pbr_xval.reference.dynamics import Body, Pedestal, RigidBodySolver
 from pbr_xval.scene import compile_scene
 
@@ -59,6 +60,27 @@ def test_hull_above_memo_equals_fresh_hull() -> None:
     for _ in range(2 * adapter._HULL_ABOVE_MAX):  # bounded
         adapter._hull_above(rng.normal(size=(30, 3)), 0.0)
     assert len(adapter._HULL_ABOVE) <= adapter._HULL_ABOVE_MAX
+
+
+def test_cull_tilts_memo_equals_the_computed_bounds() -> None:
+    """Issue 23, seventh pass: ``dynamics.cull_tilts`` memoised on the nodes' values — the same
+    bounds as the computation (``_cull_tilts``), checked against the closed form on a pair of
+    nodes; ε and ``n_ref`` in the key; a copy returned; the memo bounded."""
+    rng = np.random.default_rng(11)
+    v = rng.uniform(-0.5, 0.5, (300, 3))
+    want = dynamics._cull_tilts(v.copy(), 1e-5, 64)
+    first = dynamics.cull_tilts(v, 1e-5)
+    np.testing.assert_array_equal(first, want)
+    first[:] = 0.0  # a copy: the memo is not changed through it
+    np.testing.assert_array_equal(dynamics.cull_tilts(v, 1e-5), want)
+    assert not np.array_equal(dynamics.cull_tilts(v, 1e-2), want)  # ε is in the key
+    assert not np.array_equal(dynamics.cull_tilts(v, 1e-5, n_ref=4), want)  # so is n_ref
+    # two nodes 0.1 m apart, the upper one straight above: arccos(3ε/|Δ|) − 0 for it
+    pair = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.1]])
+    np.testing.assert_allclose(dynamics.cull_tilts(pair, 1e-3)[1], np.arccos(0.03), rtol=1e-12)
+    for _ in range(2 * dynamics._CULL_TILTS_MAX):  # bounded
+        dynamics.cull_tilts(rng.normal(size=(20, 3)), 1e-5)
+    assert len(dynamics._CULL_TILTS) <= dynamics._CULL_TILTS_MAX
 
 
 def _solver() -> RigidBodySolver:
