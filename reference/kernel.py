@@ -248,6 +248,14 @@ def _norm3(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
+@njit(cache=True)
+def _mat(buf, o, n, m):
+    """The (n, m) row-major view of ``buf[o : o + n m]`` (1-D, contiguous): the same elements
+    as ``buf[o : o + n m].reshape((n, m))``, without reshape's checks (~10 ns per call, ~70
+    calls per quiet step)."""
+    return np.lib.stride_tricks.as_strided(buf[o : o + n * m], (n, m), (m * buf.itemsize, buf.itemsize))
+
+
 # In-place forms for the direct iteration of :func:`step` (no allocation per iteration);
 # :func:`_solve3` and :func:`_cayley_project` above call them with fresh arrays.
 @njit(cache=True)
@@ -522,14 +530,14 @@ def _contact_problem_into(
     :func:`_mm`, :func:`_mmt`, :func:`_mv` on the same zero-filled skew matrices)."""
     k = idx.size
     n3 = 3 * k
-    t33 = work[0:9].reshape((3, 3))
-    iw = work[9:18].reshape((3, 3))
-    wx = work[18:27].reshape((3, 3))
-    sa = work[27:36].reshape((3, 3))
-    kin = work[36:45].reshape((3, 3))
-    gm = work[45 : 45 + 6 * n3].reshape((n3, 6))
-    H = work[45 + 6 * n3 : 45 + 9 * n3].reshape((n3, 3))
-    r = work[45 + 9 * n3 : 45 + 9 * n3 + 3 * k].reshape((k, 3))
+    t33 = _mat(work, 0, 3, 3)
+    iw = _mat(work, 9, 3, 3)
+    wx = _mat(work, 18, 3, 3)
+    sa = _mat(work, 27, 3, 3)
+    kin = _mat(work, 36, 3, 3)
+    gm = _mat(work, 45, n3, 6)
+    H = _mat(work, 45 + 6 * n3, n3, 3)
+    r = _mat(work, 45 + 9 * n3, k, 3)
     # iw = _mmt(_mm(R, inertia_inv), R)
     for i in range(3):
         for j in range(3):
@@ -761,7 +769,7 @@ def _clamped_solve_into(A, b, status, scale, ws, rows, used, f):
         return True
     # the work arrays as views of the caller's scratch
     nn = ne * ne
-    sub = ws[0:nn].reshape((ne, ne))
+    sub = _mat(ws, 0, ne, ne)
     rhs = ws[8 * nn : 8 * nn + ne]
     # symmetric scaling: (S A S) u = −S b, f = S u (S = diag(scale_E))
     for p in range(ne):
@@ -773,28 +781,28 @@ def _clamped_solve_into(A, b, status, scale, ws, rows, used, f):
     # column and row spaces of the (rank-r) block, x = Qr (Qcᵀ A Qr)⁻¹ Qcᵀ rhs — the part of
     # rhs outside the column space (which no force can reach) is left over, and x has no
     # component along the redundant (null-space) directions
-    subt = ws[nn : 2 * nn].reshape((ne, ne))
+    subt = _mat(ws, nn, ne, ne)
     for p in range(ne):
         for q in range(ne):
             subt[p, q] = sub[q, p]
     use = used[0:ne]
-    scratch = ws[2 * nn : 3 * nn].reshape((ne, ne))
+    scratch = _mat(ws, 2 * nn, ne, ne)
     norms = ws[8 * nn + ne : 8 * nn + 2 * ne]
-    qc = ws[3 * nn : 4 * nn].reshape((ne, ne))  # basis columns 0 … r − 1
-    qr = ws[4 * nn : 5 * nn].reshape((ne, ne))
+    qc = _mat(ws, 3 * nn, ne, ne)  # basis columns 0 … r − 1
+    qr = _mat(ws, 4 * nn, ne, ne)
     r = _basis_into(sub, 1e-10, scratch, norms, use, qc)
     if _basis_into(subt, 1e-10, scratch, norms, use, qr) != r:
         return False
     if r == 0:
         return True
-    aq = ws[5 * nn : 5 * nn + ne * r].reshape((ne, r))  # sub @ qr
+    aq = _mat(ws, 5 * nn, ne, r)  # sub @ qr
     for p in range(ne):
         for c in range(r):
             acc = 0.0
             for q in range(ne):
                 acc += sub[p, q] * qr[q, c]
             aq[p, c] = acc
-    K = ws[6 * nn : 6 * nn + r * r].reshape((r, r))  # qcᵀ sub qr
+    K = _mat(ws, 6 * nn, r, r)  # qcᵀ sub qr
     g = ws[8 * nn + 2 * ne : 8 * nn + 2 * ne + r]  # qcᵀ rhs
     for c1 in range(r):
         acc = 0.0
@@ -1600,13 +1608,13 @@ def _forces(
     if k == 0:
         return F, tau, True
     n3 = 3 * k
-    A = fws[0 : n3 * n3].reshape((n3, n3))
+    A = _mat(fws, 0, n3, n3)
     o = n3 * n3
     b = fws[o : o + n3]
     o += n3
-    gf = fws[o : o + 6 * n3].reshape((n3, 6))
+    gf = _mat(fws, o, n3, 6)
     o += 6 * n3
-    tdir = fws[o : o + 2 * k].reshape((k, 2))
+    tdir = _mat(fws, o, k, 2)
     o += 2 * k
     a_rel = fws[o : o + 3]
     o += 3
@@ -1798,14 +1806,14 @@ def _step(
     ped_kind = int(prm[P_PED_KIND])
     hx, hy = prm[P_HX], prm[P_HY]
     nn = nodes.shape[0]
-    r0s = swf[0 : 3 * nn].reshape((nn, 3))
+    r0s = _mat(swf, 0, nn, 3)
     gaps0 = swf[3 * nn : 4 * nn]
-    vel0 = swf[4 * nn : 7 * nn].reshape((nn, 3))
+    vel0 = _mat(swf, 4 * nn, nn, 3)
     o = 7 * nn
     x0 = swf[o : o + 3]
     v0 = swf[o + 3 : o + 6]
     l0 = swf[o + 6 : o + 9]
-    R0 = swf[o + 9 : o + 18].reshape((3, 3))
+    R0 = _mat(swf, o + 9, 3, 3)
     for c in range(3):
         x0[c] = sv[c]
         v0[c] = sv[3 + c]
@@ -1813,11 +1821,11 @@ def _step(
     for c in range(9):
         R0[c // 3, c % 3] = sv[6 + c]
     o += 18
-    eye = swf[o : o + 9].reshape((3, 3))
+    eye = _mat(swf, o, 3, 3)
     o += 9
     wk = swf[o : o + 90].reshape((10, 3, 3))
     o += 90
-    vecs = swf[o : o + 18].reshape((6, 3))
+    vecs = _mat(swf, o, 6, 3)
     o += 18
     F0 = swf[o : o + 3]
     tau0 = swf[o + 3 : o + 6]
