@@ -191,7 +191,9 @@ def collision_parts(
     ):
         return kind, list(sc["parts"])
     if kind == "hull":
-        hull = rock.mesh.convex_hull
+        from pbr_xval.scene import rock_hull
+
+        hull = rock_hull(rock.mesh)  # memoised on the mesh's bytes (ensemble members share it)
         return kind, [(np.asarray(hull.vertices, float), np.asarray(hull.faces, np.int64))]
     if kind == "mesh":
         return kind, [(np.asarray(rock.mesh.vertices, float), np.asarray(rock.mesh.faces, np.int64))]

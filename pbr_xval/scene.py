@@ -144,6 +144,91 @@ def _stability_table(vertices: np.ndarray, com: np.ndarray) -> StabilityTable:
     return table
 
 
+_ALPHA_CACHE: dict[str, tuple[float, float]] = {}
+
+
+def _alpha_pair(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
+    """(α toward −d, α toward +d), rad (:func:`critical_tilt`), memoised on the exact vertex, COM and
+    direction bytes: every run's diagnostics read the scene's α, and a campaign runs the same rock in
+    the same direction for every test (an ensemble member keeps its direction across tests in lab
+    mode); two critical-tilt searches on a scanned hull cost ~15–30 ms."""
+    import hashlib
+
+    h = hashlib.sha256(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(com, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(direction, dtype=np.float64).tobytes())
+    key = h.hexdigest()
+    hit = _ALPHA_CACHE.get(key)
+    if hit is None:
+        if len(_ALPHA_CACHE) >= 1024:
+            _ALPHA_CACHE.clear()
+        d = np.asarray(direction, dtype=float)
+        hit = _ALPHA_CACHE[key] = (critical_tilt(vertices, com, -d), critical_tilt(vertices, com, d))
+    return hit
+
+
+_MESH_CACHE: dict[str, tuple[Any, float, np.ndarray, np.ndarray, np.ndarray, float]] = {}
+_HULL_CACHE: dict[str, Any] = {}
+
+
+def _mesh_key(mesh: trimesh.Trimesh, *extra: float) -> str:
+    """SHA-256 of a mesh's exact vertex and face bytes (and ``extra`` numbers)."""
+    import hashlib
+
+    h = hashlib.sha256(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
+    h.update(np.asarray(extra, dtype=np.float64).tobytes())
+    return h.hexdigest()
+
+
+def rock_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """The convex hull of ``mesh`` (trimesh's, qhull), memoised on the mesh's exact bytes.
+
+    Every member of an ensemble compiles the same rock into a fresh mesh object, so trimesh's own
+    per-object cache never hits; this one does. Returns a copy (the caller may change it).
+    """
+    key = _mesh_key(mesh)
+    hull = _HULL_CACHE.get(key)
+    if hull is None:
+        if len(_HULL_CACHE) >= 16:
+            _HULL_CACHE.clear()
+        hull = _HULL_CACHE[key] = mesh.convex_hull
+    return hull.copy()
+
+
+def _mesh_geometry(
+    mesh: trimesh.Trimesh, transform: np.ndarray | None, key: str
+) -> tuple[Any, float, np.ndarray, np.ndarray, np.ndarray, float]:
+    """What a rock's mass properties need of its mesh, memoised on ``key`` (:func:`_mesh_key` of the
+    loaded mesh and its yaw): an ensemble compiles the same rock once per member with another mass,
+    friction or time step, and the mesh integrals (passes over every triangle: most of the cost of
+    compiling a scanned rock) depend on none of them.
+
+    Returns (the posed mesh, shifted so that the COM is on the z axis and the base on z = 0; volume
+    m³; centre of mass (3,) m before the shift; inertia at unit density (3, 3) m⁵ — trimesh's matrix
+    before its final multiplication by the density, so ``inertia * density`` is trimesh's result
+    bit for bit; the shift (3,) m; the shifted mesh's volume m³). Callers get copies of the mesh
+    (:func:`_rock_model`).
+    """
+    hit = _MESH_CACHE.get(key)
+    if hit is not None:
+        return hit
+    if transform is not None:
+        mesh.apply_transform(transform)
+    mesh.density = 1.0
+    mp = mesh.mass_properties
+    volume = float(mp["volume"])
+    com = np.asarray(mp["center_mass"], dtype=float)
+    inertia_unit = np.asarray(mp["inertia"], dtype=float)  # × 1.0: trimesh's matrix exactly
+    shift = np.array([-com[0], -com[1], -mesh.bounds[0, 2]])
+    mesh.apply_translation(shift)
+    out = (mesh, volume, com, inertia_unit, shift, float(mesh.volume))
+    if len(_MESH_CACHE) >= 8:
+        _MESH_CACHE.clear()
+    _MESH_CACHE[key] = out
+    return out
+
+
 @dataclass(frozen=True)
 class PlanarModel:
     """The rock seen in the shaking plane (x' along the shaking, z up), for 2-D models.
@@ -262,8 +347,7 @@ class Scene:
     @cached_property
     def alpha(self) -> tuple[float, float]:
         """Critical tilt angles (rad) toward −d and +d (the 'left' and 'right' sides)."""
-        v, c, d = self.rock.mesh.vertices, self.rock.com, self.direction
-        return critical_tilt(v, c, -d), critical_tilt(v, c, d)
+        return _alpha_pair(self.rock.mesh.vertices, self.rock.com, self.direction)
 
     @cached_property
     def _uplift_levers(self) -> dict[float, tuple[float, float]]:
@@ -389,7 +473,8 @@ class Scene:
 
 
 # --------------------------------------------------------------------- compile
-def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel:
+def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> tuple[float, RockModel]:
+    """(the rock mesh's volume in the scene frame, m³; the rock model)."""
     from pbr_xval.geometry import shapes
 
     rock = scn.rock
@@ -429,38 +514,38 @@ def _rock_model(scn: sc.Scenario, reductions: list[dict[str, str]]) -> RockModel
     else:  # pragma: no cover - the union is closed
         raise TypeError(type(rock))
 
-    if yaw:
-        mesh.apply_transform(np.block([[rz, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]))
-        if box_parts is not None:
-            box_parts = [(rz @ c, h) for c, h in box_parts]
-    volume = float(mesh.volume)
+    transform = np.block([[rz, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]) if yaw else None
+    if box_parts is not None and yaw:
+        box_parts = [(rz @ c, h) for c, h in box_parts]
+    # the mesh integrals and the shift, once per mesh (an ensemble's members share them)
+    shared, volume, com, inertia_unit, shift, shifted_volume = _mesh_geometry(
+        mesh, transform, _mesh_key(mesh, rock.yaw_deg)
+    )
     if not (volume > 0):
         raise sc.ScenarioError(
             f"scenario {scn.name!r}: key 'rock': the rock mesh has volume {volume} m³ (expected > 0)"
         )
+    mesh = shared.copy()
     if rock.density is not None:
         density = rock.density
     else:
         assert rock.mass is not None  # the scenario requires density or mass
         density = rock.mass / volume
     mesh.density = density
-    mp = mesh.mass_properties
-    com = np.asarray(mp["center_mass"], dtype=float)
-    inertia = np.asarray(mp["inertia"], dtype=float)
+    mass = density * volume  # trimesh's MassProperties.mass
+    inertia = inertia_unit * density  # trimesh's MassProperties.inertia
     if isinstance(rock, sc.MeshRock) and rock.inertia is not None:
         ixx, iyy, izz, ixy, ixz, iyz = rock.inertia
         inertia = rz @ np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]) @ rz.T
         info["inertia_source"] = "scenario"
-    # put the COM on the z axis; the base already sits on z = 0
-    shift = np.array([-com[0], -com[1], -mesh.bounds[0, 2]])
-    mesh.apply_translation(shift)
+    # the COM on the z axis; the base already sits on z = 0 (the shift was applied to the mesh)
     com = com + shift
     if box_parts is not None:
         box_parts = [(c + shift, h) for c, h in box_parts]
     info.update(volume_m3=volume, density_kg_m3=density)
-    return RockModel(
+    return shifted_volume, RockModel(
         shape=rock.shape,
-        mass=float(mp["mass"]),
+        mass=float(mass),
         com=com,
         inertia=inertia,
         mesh=mesh,
@@ -513,7 +598,7 @@ def _choose_collision(scn: sc.Scenario, rock: RockModel, reductions: list[dict[s
         out["cell"], out["band"] = cell, band
         why += f"; {len(rock.mesh.faces)} → {len(dec.faces)} faces, cell {cell:.3g} m, base band {band:.3g} m kept"
     elif kind == "hull":
-        hull = rock.mesh.convex_hull
+        hull = rock_hull(rock.mesh)
         why += f"; {len(hull.vertices)} hull vertices"
     reductions.append({"what": "rock collision", "choice": kind, "why": why})
     return out
@@ -567,12 +652,10 @@ def _motion(spec: Any, scn: sc.Scenario, uplift: float | None) -> GroundMotion:
 def compile_scene(scn: sc.Scenario) -> Scene:
     """Build the :class:`Scene` for ``scn``, recording every modelling choice."""
     reductions: list[dict[str, str]] = []
-    rock = _rock_model(scn, reductions)
+    mesh_volume, rock = _rock_model(scn, reductions)
     from pbr_xval.plausibility import check_rock
 
-    check_rock(
-        scn.rock, rock.mass, float(rock.mesh.volume), rock.mesh.extents, where=f"scenario {scn.name!r}"
-    )
+    check_rock(scn.rock, rock.mass, mesh_volume, rock.mesh.extents, where=f"scenario {scn.name!r}")
     az = math.radians(scn.excitation.azimuth_deg)
     direction = np.array([math.cos(az), math.sin(az), 0.0])
     if abs(direction[0]) < 1e-15:
