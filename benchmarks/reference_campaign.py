@@ -42,7 +42,12 @@ TAIL_S = 3.0
 
 
 def _scene(scn, motion, stop_on_topple: bool = True):
-    exc = {"type": "record", "path": str(motion.path), "format": "table", "units": "m/s2", "dt": motion.dt}
+    # the scenario's shaking azimuth kept (validate keeps it; SP2's is 30°): replacing the excitation
+    # table without it shook SP2 along 0° in every figure measured before commit of this line
+    exc = {
+        "type": "record", "path": str(motion.path), "format": "table", "units": "m/s2", "dt": motion.dt,
+        "azimuth_deg": float(scn.excitation.azimuth_deg),
+    }  # fmt: skip
     out = scn.with_value("excitation", exc).with_value("duration", float(motion.duration) + TAIL_S)
     out = out.with_value("output_dt", 0.01).with_value("toppling.stop_at_rest", True)
     if not stop_on_topple:
