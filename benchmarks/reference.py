@@ -19,7 +19,8 @@ Figures, each printed next to its goal as a ratio (value / goal; ≤ 1 meets it)
    each (measured 3.6× and 3.0× when the issue was filed, after warm-up; 4.38× and 18.3× before
    the compiled time loop of issue 23's second pass, 3.1× and 11.8× after it, 1.9× and 6.0×
    after its third pass, 1.5× and 4.0× after its fourth, 1.2–1.3× and 2.0–2.9× after its
-   fifth — see ``reference/PERFORMANCE.md``). Per shake-table test:
+   fifth, 0.5–1.0× and 2.0–2.4× after its seventh (the sixth's change was reverted) — see
+   ``reference/PERFORMANCE.md``). Per shake-table test:
    ``benchmarks/reference_campaign.py``.
 
 Run:  python benchmarks/reference.py [--no-cold] [--quick]
