@@ -122,6 +122,17 @@ class RockModel:
         return _stability_table(self.mesh.vertices, self.com)
 
 
+def _content_key(*arrays: np.ndarray) -> str:
+    """SHA-256 over the exact bytes of ``arrays`` (each as given: callers fix the dtypes), the key of
+    the scene's per-process memos."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
 _STABILITY_CACHE: dict[str, StabilityTable] = {}
 
 
@@ -131,11 +142,7 @@ def _stability_table(vertices: np.ndarray, com: np.ndarray) -> StabilityTable:
     Threshold searches and sweeps compile the same rock many times with different motions;
     the table (72 root-finds on the hull) is the costliest part of compiling.
     """
-    import hashlib
-
-    h = hashlib.sha256(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(com, dtype=np.float64).tobytes())
-    key = h.hexdigest()
+    key = _content_key(np.asarray(vertices, dtype=np.float64), np.asarray(com, dtype=np.float64))
     table = _STABILITY_CACHE.get(key)
     if table is None:
         if len(_STABILITY_CACHE) > 256:
@@ -144,41 +151,17 @@ def _stability_table(vertices: np.ndarray, com: np.ndarray) -> StabilityTable:
     return table
 
 
-_ALPHA_CACHE: dict[str, tuple[float, float]] = {}
-
-
-def _alpha_pair(vertices: np.ndarray, com: np.ndarray, direction: np.ndarray) -> tuple[float, float]:
-    """(α toward −d, α toward +d), rad (:func:`critical_tilt`), memoised on the exact vertex, COM and
-    direction bytes: every run's diagnostics read the scene's α, and a campaign runs the same rock in
-    the same direction for every test (an ensemble member keeps its direction across tests in lab
-    mode); two critical-tilt searches on a scanned hull cost ~15–30 ms."""
-    import hashlib
-
-    h = hashlib.sha256(np.ascontiguousarray(vertices, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(com, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(direction, dtype=np.float64).tobytes())
-    key = h.hexdigest()
-    hit = _ALPHA_CACHE.get(key)
-    if hit is None:
-        if len(_ALPHA_CACHE) >= 1024:
-            _ALPHA_CACHE.clear()
-        d = np.asarray(direction, dtype=float)
-        hit = _ALPHA_CACHE[key] = (critical_tilt(vertices, com, -d), critical_tilt(vertices, com, d))
-    return hit
-
-
 _MESH_CACHE: dict[str, tuple[Any, float, np.ndarray, np.ndarray, np.ndarray, float]] = {}
 _HULL_CACHE: dict[str, Any] = {}
 
 
 def _mesh_key(mesh: trimesh.Trimesh, *extra: float) -> str:
-    """SHA-256 of a mesh's exact vertex and face bytes (and ``extra`` numbers)."""
-    import hashlib
-
-    h = hashlib.sha256(np.ascontiguousarray(mesh.vertices, dtype=np.float64).tobytes())
-    h.update(np.ascontiguousarray(mesh.faces, dtype=np.int64).tobytes())
-    h.update(np.asarray(extra, dtype=np.float64).tobytes())
-    return h.hexdigest()
+    """:func:`_content_key` of a mesh's vertices and faces (and ``extra`` numbers)."""
+    return _content_key(
+        np.asarray(mesh.vertices, dtype=np.float64),
+        np.asarray(mesh.faces, dtype=np.int64),
+        np.asarray(extra, dtype=np.float64),
+    )
 
 
 def rock_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
@@ -347,7 +330,8 @@ class Scene:
     @cached_property
     def alpha(self) -> tuple[float, float]:
         """Critical tilt angles (rad) toward −d and +d (the 'left' and 'right' sides)."""
-        return _alpha_pair(self.rock.mesh.vertices, self.rock.com, self.direction)
+        v, c, d = self.rock.mesh.vertices, self.rock.com, self.direction
+        return critical_tilt(v, c, -d), critical_tilt(v, c, d)
 
     @cached_property
     def _uplift_levers(self) -> dict[float, tuple[float, float]]:

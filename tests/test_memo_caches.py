@@ -98,7 +98,7 @@ def test_compiled_meshes_are_copies(tmp_path: Path) -> None:
     assert np.array_equal(rock_hull(b).vertices, b.convex_hull.vertices)
 
 
-def test_scene_alpha_memo_is_critical_tilt_per_direction(tmp_path: Path) -> None:
+def test_scene_alpha_is_critical_tilt_per_direction(tmp_path: Path) -> None:
     from pbr_xval.geometry.stability import critical_tilt
     from pbr_xval.scenario import load_scenario
     from pbr_xval.scene import compile_scene
