@@ -226,7 +226,19 @@ def chance(*records: str) -> None:
     )
 
 
+COMMANDS = {"rows": rows, "boot": boot, "cost": cost, "split": split, "chance": chance}
+
 if __name__ == "__main__":
+    if len(sys.argv) < 2 or sys.argv[1] not in COMMANDS:
+        found = sys.argv[1] if len(sys.argv) > 1 else "nothing"
+        if found in ("-h", "--help"):
+            print(__doc__)
+            sys.exit(0)
+        print(
+            f"error: command: found {found!r}, expected one of {', '.join(COMMANDS)} (--help)",
+            file=sys.stderr,
+        )
+        sys.exit(2)
     print(f"# {platform.processor() or platform.machine()}, load {os.getloadavg()[0]:.1f}")
     cmd, *args = sys.argv[1:]
-    {"rows": rows, "boot": boot, "cost": cost, "split": split, "chance": chance}[cmd](*args)  # type: ignore[operator]
+    COMMANDS[cmd](*args)  # type: ignore[operator]
