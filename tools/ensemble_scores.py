@@ -17,6 +17,11 @@ prints, per folder:
   ``outcomes.csv`` on a list of tests (e.g. the 66 screening tests) and on the folder's other tests.
 * ``chance``: over the tests of ``ensemble_sp<N>_robustness.json`` records, how many tests' P would leave
   the base run's interval by Monte-Carlo noise alone (``exits_by_chance``), beside the records' exits.
+* ``sessions``: does the model's error cluster by test day (the rock re-seated between sessions)? The statistic
+  Σ_day (Σ (observed − P))² / n_day against 4,000 permutations of the day labels among the tests of each record
+  (seed 0), for the ensemble, the logistic on ln PGA and ln PGV, and the transferred law.
+* ``repeats``: the lab's own repeatability — pairs of tests of the same record whose sheet PGAs are within 2, 5
+  and 10 % (log ratio), how many gave opposite outcomes (no simulation: ``experiments.csv`` only).
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -28,6 +33,8 @@ Usage::
     python tools/ensemble_scores.py cost /tmp/ens/sp1
     python tools/ensemble_scores.py chance examples/validation/robustness/ensemble_sp{1,2}_robustness.json
     python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
+    python tools/ensemble_scores.py sessions /tmp/ens/sp1 /tmp/ens/sp2
+    python tools/ensemble_scores.py repeats
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
 of the transferred law), relative to the repository root.
@@ -226,7 +233,65 @@ def chance(*records: str) -> None:
     )
 
 
-COMMANDS = {"rows": rows, "boot": boot, "cost": cost, "split": split, "chance": chance}
+def sessions(*folders: str) -> None:
+    """Day clustering of the residuals (observed − P), against day labels permuted within each record."""
+    ex = pd.read_csv(CAMPAIGN / "experiments.csv", dtype={"test": str})[["test", "date"]]
+
+    def stat(r: np.ndarray, day: np.ndarray) -> float:
+        g = pd.DataFrame({"r": r, "d": day}).groupby("d")["r"].agg(["sum", "size"])
+        return float((g["sum"] ** 2 / g["size"]).sum())
+
+    for folder in folders:
+        oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str}).merge(ex, on="test")
+        groups = [np.flatnonzero(oc.motion.to_numpy() == m) for m in oc.motion.unique()]
+        for col in ("p_ensemble", "p_logistic(lnPGA,lnPGV)", "p_transferred"):
+            rng = np.random.default_rng(0)
+            r = (oc.observed - oc[col]).to_numpy(float)
+            t0 = stat(r, oc.date.to_numpy())
+            ts = np.empty(4000)
+            for k in range(ts.size):
+                day = oc.date.to_numpy().copy()
+                for ix in groups:
+                    day[ix] = day[rng.permutation(ix)]
+                ts[k] = stat(r, day)
+            print(
+                f"{folder} {col}: statistic {t0:.2f}, permuted mean {ts.mean():.2f}, p {np.mean(ts >= t0):.4f}"
+            )
+
+
+def repeats() -> None:
+    """Same-record test pairs at nearly the same sheet PGA, and how often the lab's outcomes disagree."""
+    ex = pd.read_csv(CAMPAIGN / "experiments.csv")
+    for tol in (0.02, 0.05, 0.10):
+        for spec in (1, 2):
+            col = f"toppled_specimen{spec}"
+            n = dis = 0
+            pairs = []
+            for _, s in ex.groupby("motion"):
+                v = s[["test", "pga_g", "date", col]].to_numpy()
+                for i in range(len(v)):
+                    for j in range(i + 1, len(v)):
+                        if abs(np.log(v[j][1] / v[i][1])) <= tol:
+                            n += 1
+                            if v[i][3] != v[j][3]:
+                                dis += 1
+                                pairs.append(
+                                    f"{int(v[i][0])}/{int(v[j][0])} ({v[i][1]:.3f}/{v[j][1]:.3f} g, {int(v[i][3])}/{int(v[j][3])})"
+                                )
+            print(
+                f"PGA within {tol:.0%}: SP{spec} {n} pairs, {dis} with opposite outcomes: {', '.join(pairs)}"
+            )
+
+
+COMMANDS = {
+    "rows": rows,
+    "boot": boot,
+    "cost": cost,
+    "split": split,
+    "chance": chance,
+    "sessions": sessions,
+    "repeats": repeats,
+}
 
 if __name__ == "__main__":
     if len(sys.argv) < 2 or sys.argv[1] not in COMMANDS:
