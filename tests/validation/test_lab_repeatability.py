@@ -1,0 +1,62 @@
+"""docs/validation.md, "Is the experiment itself repeatable?": the counts of near-twin tests (same record,
+sheet PGA within 5 % / 10 %) and of those with opposite outcomes, recounted here from the lab sheet
+(``experiments.csv``, the independent reference) — not with ``tools/ensemble_scores.py repeats``, which
+printed them for the page."""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+
+import pandas as pd
+import pytest
+
+from .conftest import REPO, SHAKE_TABLE
+
+pytestmark = pytest.mark.skipif(
+    not (SHAKE_TABLE / "experiments.csv").is_file(), reason="shared shake-table data not present"
+)
+
+
+def _section() -> str:
+    doc = " ".join((REPO / "docs" / "validation.md").read_text().split())
+    start = doc.index("**Is the experiment itself repeatable?")
+    return doc[start : doc.index("**Re-seating between sessions", start)]
+
+
+def _twins(specimen: int, tol: float) -> tuple[int, list[tuple[int, int]]]:
+    """Same-record pairs with |ln(PGA_a / PGA_b)| ≤ tol; the discordant ones as (test, test)."""
+    ex = pd.read_csv(SHAKE_TABLE / "experiments.csv")
+    n, discordant = 0, []
+    for _, rec in ex.groupby("motion"):
+        for (_, a), (_, b) in itertools.combinations(rec.iterrows(), 2):
+            if abs(math.log(a.pga_g / b.pga_g)) <= tol:
+                n += 1
+                if a[f"toppled_specimen{specimen}"] != b[f"toppled_specimen{specimen}"]:
+                    discordant.append(tuple(sorted((int(a.test), int(b.test)))))
+    return n, sorted(discordant)  # type: ignore[arg-type]
+
+
+def test_twin_counts_on_the_page_match_the_lab_sheet() -> None:
+    text = _section()
+    m = re.search(r"within 5 %: (\d+) pairs .*?(\d+) of those (\d+) pairs gave opposite outcomes", text)
+    assert m, "docs/validation.md: the 5 % twin sentence is missing"
+    n5, d5, n5b = map(int, m.groups())
+    m10 = re.search(r"within 10 %: (\d+) of (\d+)\)", text)
+    assert m10
+    d10, n10 = map(int, m10.groups())
+    for spec in (1, 2):
+        n, dis = _twins(spec, 0.05)
+        assert (n, len(dis)) == (n5, d5) and n5 == n5b, (spec, n, dis)
+        n, dis = _twins(spec, 0.10)
+        assert (n, len(dis)) == (n10, d10), (spec, n, dis)
+    # the SP2 pairs the page names, and which of each toppled
+    _, dis = _twins(2, 0.10)
+    assert dis == [(59, 90), (269, 361), (374, 396)]
+    ex = pd.read_csv(SHAKE_TABLE / "experiments.csv").set_index("test")
+    assert [int(ex.loc[t, "toppled_specimen2"]) for t in (374, 396, 269, 361, 59, 90)] == [1, 0, 1, 0, 0, 1]
+    assert [int(ex.loc[t, "toppled_specimen1"]) for t in (269, 361)] == [0, 1]
+    # the floor the page quotes: six tests, at least 0.25 each, over the specimen's 196 tests
+    floor = re.search(r"at least 6 × 0\.25 / 196 = ([0-9.]+)", text)
+    assert floor and float(floor.group(1)) == pytest.approx(6 * 0.25 / len(ex), abs=5e-5)
