@@ -22,6 +22,10 @@ prints, per folder:
   (seed 0), for the ensemble, the logistic on ln PGA and ln PGV, and the transferred law.
 * ``repeats``: the lab's own repeatability — pairs of tests of the same record whose sheet PGAs are within 2, 5
   and 10 % (log ratio), how many gave opposite outcomes (no simulation: ``experiments.csv`` only).
+* ``rehearse``: a rehearsal of the held-out judgement inside the calibration half — its records split in two
+  (``group_folds(records, 2)``), each half scored with the lab and field ensembles' P of the given folders
+  against the logistic laws and the rules fitted on the *other* half (``validate --calibration``'s
+  ``add_calibration_baselines``) and against the transferred law.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -35,6 +39,7 @@ Usage::
     python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
     python tools/ensemble_scores.py sessions /tmp/ens/sp1 /tmp/ens/sp2
     python tools/ensemble_scores.py repeats
+    python tools/ensemble_scores.py rehearse 1 /tmp/ens/sp1_lab /tmp/ens/sp1_field
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
 of the transferred law), relative to the repository root.
@@ -283,6 +288,54 @@ def repeats() -> None:
             )
 
 
+def rehearse(specimen: str, lab: str, field: str) -> None:
+    """The held-out judgement rehearsed on the two record halves of the calibration campaign."""
+    import tempfile
+    from types import SimpleNamespace
+
+    from sklearn.metrics import f1_score
+
+    from pbr_xval.validation.campaign import load_campaign
+    from pbr_xval.validation.campaign_report import add_calibration_baselines, evaluate
+    from pbr_xval.validation.metrics import group_folds
+
+    spec = int(specimen)
+    ex = pd.read_csv(CAMPAIGN / "experiments.csv")
+    fold = group_folds(ex.motion.tolist(), 2)
+    p_lab = pd.read_csv(f"{lab}/outcomes.csv").set_index("test")
+    p_field = pd.read_csv(f"{field}/outcomes.csv").set_index("test")
+    with tempfile.TemporaryDirectory() as tmp:
+        halves = []
+        for k in (0, 1):
+            d = Path(tmp) / f"half{k}"
+            d.mkdir()
+            ex[fold == k].to_csv(d / "experiments.csv", index=False)
+            (d / "table_motions.npz").symlink_to((CAMPAIGN / "table_motions.npz").resolve())
+            halves.append(d)
+        for fit_on, scored in ((halves[0], halves[1]), (halves[1], halves[0])):
+            camp = load_campaign(scored, spec)
+            motions = {t.test: SimpleNamespace(pga=1.0, pgv=0.1, duration=1.0) for t in camp.tests}
+            rows = pd.DataFrame(columns=["test", "engine", "toppled", "status", "wall_s"])
+            res = evaluate(camp, rows, motions, [], folds=4, baseline_source="sheet")
+            add_calibration_baselines(res, str(fit_on), spec)
+            sc = res.scores.set_index("model")
+            t = res.outcomes.test.astype(int).to_numpy()
+            o = res.outcomes.observed.to_numpy(int)
+            logit = [m for m in sc.index if m.startswith("logistic") and m.endswith("@calibration")]
+            best = min(logit, key=lambda m: sc.loc[m, "brier"])
+            b_lab = float(np.mean((p_lab.loc[t, "p_ensemble"].to_numpy() - o) ** 2))
+            b_field = float(np.mean((p_field.loc[t, "p_ensemble"].to_numpy() - o) ** 2))
+            b_tr = float(np.mean((p_field.loc[t, "p_transferred"].to_numpy() - o) ** 2))
+            f1 = f1_score(o, p_lab.loc[t, "p_ensemble"].to_numpy() >= 0.5)
+            print(
+                f"SP{spec} scored on {scored.name} ({len(t)} tests, {o.sum()} toppled), fitted on {fit_on.name}: "
+                f"lab ensemble Brier {b_lab:.3f} F1 {f1:.3f}; best logistic {best} {sc.loc[best, 'brier']:.3f} "
+                f"({100 * (b_lab / sc.loc[best, 'brier'] - 1):+.0f} %); best rule F1 "
+                f"{max(sc.loc[m, 'f1'] for m in sc.index if 'rule@' in m):.3f}; field ensemble {b_field:.3f} "
+                f"vs transferred {b_tr:.3f} ({100 * (b_field / b_tr - 1):+.0f} %)"
+            )
+
+
 COMMANDS = {
     "rows": rows,
     "boot": boot,
@@ -291,6 +344,7 @@ COMMANDS = {
     "chance": chance,
     "sessions": sessions,
     "repeats": repeats,
+    "rehearse": rehearse,
 }
 
 if __name__ == "__main__":

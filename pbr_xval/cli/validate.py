@@ -57,6 +57,14 @@ def validate(
             "by each rock's geometry: CAMPAIGN:SPECIMEN:SCENARIO (e.g. ../shared/data/shake_table:2:sp2.toml)"
         ),
     ] = None,
+    calibration: Annotated[
+        Path | None,
+        typer.Option(
+            help="also the rules and logistic baselines fitted on every test of another campaign and applied "
+            "unchanged to these tests (models '<name>@calibration'): CAMPAIGN[:SPECIMEN], e.g. the calibration "
+            "half when scoring the held-out half (default specimen: --specimen)"
+        ),
+    ] = None,
     set_: SetOpt = None,
     ensemble: Annotated[
         bool,
@@ -85,7 +93,7 @@ def validate(
         campaign, specimen=specimen, scenario=scenario, engines=engine or [], out=out, tests=tests,
         limit=limit, folds=folds, highpass=highpass, lowpass=lowpass, detrend=detrend, resample=resample, tail=tail,
         workers=workers, chunk_size=chunk_size, baseline_source=baseline_source, sets=set_, console=console,
-        transfer=transfer,
+        transfer=transfer, calibration=str(calibration) if calibration else None,
         ensemble=ensemble, members=members, half_width=half_width, batch=batch,
     )  # fmt: skip
     if code:

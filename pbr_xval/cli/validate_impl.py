@@ -142,6 +142,7 @@ def validate_command(
     console: Any = None,
     progress: bool = True,
     transfer: str | None = None,
+    calibration: str | None = None,
     ensemble: bool = False,
     members: int | None = None,
     half_width: float | None = None,
@@ -222,6 +223,10 @@ def validate_command(
         bad_transfer = _check_transfer(transfer)
         if bad_transfer:
             return fail(bad_transfer)
+    if calibration:
+        bad_cal = _check_calibration(calibration, specimen, baseline_source, has_sheet)
+        if bad_cal:
+            return fail(bad_cal)
     out = out or Path("reports") / f"validate_{scn.name}"
     try:
         check_output_dir(out, "--out")
@@ -249,6 +254,15 @@ def validate_command(
         except Exception as exc:  # the runs are done: report without it rather than lose them
             err.print(
                 f"[yellow]warning:[/] --transfer {escape(transfer)}: {escape(str(exc))}", soft_wrap=True
+            )
+    if calibration:  # the baselines fitted on another campaign (e.g. the calibration half)
+        from pbr_xval.validation.campaign_report import add_calibration_baselines
+
+        try:
+            add_calibration_baselines(res, calibration, specimen, baseline=base)
+        except Exception as exc:  # the runs are done: report without them rather than lose them
+            err.print(
+                f"[yellow]warning:[/] --calibration {escape(calibration)}: {escape(str(exc))}", soft_wrap=True
             )
     ens_meta: dict[str, Any] = {}
     if ens_spec is not None:  # issue 22: P(topple) per test from the [uncertainty] ensemble
@@ -371,6 +385,27 @@ def _ensemble_inputs(
     if not mix:
         return "--ensemble: no engine; give --engine, or engines = [...] in [uncertainty]", engines
     return spec, list(engines) or mix
+
+
+def _check_calibration(spec: str, specimen: int, baseline_source: str, has_sheet: bool) -> str | None:
+    """What is wrong with ``--calibration CAMPAIGN[:SPECIMEN]`` (None: nothing), before any run."""
+    from pbr_xval.validation.campaign import CampaignError, load_campaign
+
+    head, sep, tail = spec.rpartition(":")
+    path, spec_n = (head, int(tail)) if sep and tail.strip().isdigit() else (spec, specimen)
+    try:
+        camp = load_campaign(path, spec_n)
+    except (CampaignError, OSError) as exc:
+        return f"--calibration {spec}: {exc}"
+    if len({int(t.toppled) for t in camp.tests}) < 2:
+        return f"--calibration {spec}: specimen {spec_n} has one outcome only; the rules and logistic laws need both"
+    sheet = all({"pga_g", "pgv_over_pga_s"} <= set(t.sheet) for t in camp.tests)
+    if (baseline_source == "sheet" or (baseline_source == "auto" and has_sheet)) and not sheet:
+        return (
+            f"--calibration {spec}: the baselines use the lab sheet's PGA and PGV/PGA here, but some tests of "
+            f"{path} lack pga_g or pgv_over_pga_s; expected both for every test (or --baseline-source record)"
+        )
+    return None
 
 
 def _check_transfer(spec: str) -> str | None:

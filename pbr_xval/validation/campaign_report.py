@@ -26,7 +26,15 @@ from pbr_xval.units import label
 from pbr_xval.validation.campaign import G_STANDARD, Campaign
 from pbr_xval.validation.metrics import Scores, fit_rule, group_folds, out_of_fold, score
 
-__all__ = ["BASELINE_RULES", "ValidationResult", "evaluate", "write_report"]
+__all__ = [
+    "BASELINE_RULES",
+    "CALIBRATION_SUFFIX",
+    "ValidationResult",
+    "add_calibration_baselines",
+    "campaign_ims",
+    "evaluate",
+    "write_report",
+]
 
 #: name → features of the empirical rules ("toppled if every feature ≥ its threshold")
 BASELINE_RULES: dict[str, tuple[str, ...]] = {
@@ -206,6 +214,24 @@ def f1_lines(res: ValidationResult) -> list[str]:
     return [f"F1 {e} {s.loc[e, 'f1']:.4f}" for e in res.engines]
 
 
+def _calibration_note(res: ValidationResult) -> str:
+    """The HTML sentence on the ``…@calibration`` models (``--calibration``), or nothing."""
+    c = res.meta.get("calibration")
+    if not c:
+        return ""
+    shared = (
+        f"; {len(c['shared_tests'])} of its tests are also here (in sample for those)"
+        if c["shared_tests"]
+        else ""
+    )
+    return (
+        f"<p>Models ending in <code>{CALIBRATION_SUFFIX}</code>: the rules and logistic laws fitted on every "
+        f"test of {html.escape(str(c['campaign']))} (specimen {c['specimen']}: {c['tests']} tests, "
+        f"{c['toppled']} toppled{html.escape(shared)}) and applied unchanged to these tests — no test "
+        "scored here entered their fit.</p>"
+    )
+
+
 def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict[str, Path]:
     """Write ``outcomes.csv``, ``scores.csv``, ``validation.json`` and ``index.html`` (atomically)."""
     out.mkdir(parents=True, exist_ok=True)
@@ -221,6 +247,7 @@ def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict
         "failed_runs": res.failures,
         "scores": json.loads(res.scores.to_json(orient="records")),
         **({"transferred": res.meta["transferred"]} if "transferred" in res.meta else {}),
+        **({"calibration": res.meta["calibration"]} if "calibration" in res.meta else {}),
     }
     paths["json"] = write_text_atomic(out / "validation.json", json.dumps(doc, indent=2, default=str))
     img = _png(_plane_figure(res))
@@ -253,6 +280,7 @@ th{{background:#f4f4f4}}</style></head><body>
 Empirical rules ("toppled if every feature ≥ its threshold", intensity measures from the
 {html.escape(res.baseline_source)}): fitted on the calibration part and scored on the held-out part,
 {res.folds}-fold by earthquake record (every test is predicted by a rule fitted on the other records).</p>
+{_calibration_note(res)}
 {sc.to_html(index=False, escape=True)}
 <h3>Confusion matrices (positive = toppled)</h3>
 <table><tr><th>model</th><th>TP (observed toppled, predicted toppled)</th><th>FN (observed toppled, predicted stood)</th>
@@ -341,6 +369,107 @@ def add_model(res: ValidationResult, name: str, p: Any, *, kind: str, evaluated_
     res.scores = pd.concat([res.scores[res.scores["model"] != name], pd.DataFrame([row])], ignore_index=True)
 
 
+def campaign_ims(camp: Campaign, source: str, baseline: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """The intensity measures of a campaign's tests as the rules use them: (PGA m/s², PGV m/s), (n,) each.
+
+    ``source`` ``"sheet"``: the lab sheet's PGA (g → m/s² with standard gravity) and PGA·(PGV/PGA);
+    ``"record"``: peak |a| and peak |v| of each record after ``baseline`` (a
+    :class:`~pbr_xval.validation.campaign.Baseline`; the default one if None), v by the trapezoid rule.
+    """
+    from pbr_xval.validation.campaign import Baseline, baseline_correct
+
+    if source == "sheet":
+        pga = np.array([t.sheet["pga_g"] * G_STANDARD for t in camp.tests])
+        return pga, pga * np.array([t.sheet["pgv_over_pga_s"] for t in camp.tests])
+    base = baseline or Baseline()
+    ims = []
+    for t in camp.tests:
+        acc, dt = baseline_correct(*t.raw_acceleration(), base)
+        v = np.concatenate([[0.0], np.cumsum(dt * (acc[:-1] + acc[1:]) / 2)])
+        ims.append((float(np.max(np.abs(acc))), float(np.max(np.abs(v)))))
+    pga, pgv = (np.array(c) for c in zip(*ims, strict=True))
+    return pga, pgv
+
+
+#: suffix of the models fitted on another campaign (``--calibration``): ``logistic(lnPGA)@calibration``
+CALIBRATION_SUFFIX = "@calibration"
+
+
+def add_calibration_baselines(
+    res: ValidationResult, spec: str, specimen: int, *, baseline: Any = None
+) -> dict[str, Any]:
+    """Add the empirical baselines fitted on *another* campaign: ``--calibration CAMPAIGN[:SPECIMEN]``.
+
+    The split a held-out evaluation needs: the threshold rules and the three logistic laws are fitted
+    on every test of the calibration campaign (e.g. the calibration half of a shake-table campaign)
+    and applied, unchanged, to this campaign's tests (e.g. the held-out half) — no test of this
+    campaign enters a fit. They join the scores as ``<model>@calibration`` (``PGV rule@calibration``,
+    ``logistic(lnPGA,lnPGV)@calibration``) beside the out-of-fold ones, with F1 at P ≥ 0.5 and
+    Brier / log loss / AUC. The intensity measures are the rules' (``res.baseline_source``; the
+    calibration campaign's records corrected with ``baseline``). ``SPECIMEN`` defaults to
+    ``specimen``. Returns what the report records (the campaign, its specimen and size, the tests
+    both campaigns share — in sample for those — and each rule as fitted).
+    """
+    from pbr_xval.validation.campaign import load_campaign
+    from pbr_xval.validation.scores import LOGISTIC_MODELS, _ln_ims, fit_logistic
+
+    head, sep, tail = spec.rpartition(":")
+    src_path, src_spec = (head, int(tail)) if sep and tail.strip().isdigit() else (spec, int(specimen))
+    camp = load_campaign(src_path, src_spec)
+    pga, pgv = campaign_ims(camp, res.baseline_source, baseline)
+    obs = np.array([int(t.toppled) for t in camp.tests])
+    if len(set(obs.tolist())) < 2:
+        raise ValueError(f"{src_path}: specimen {src_spec} has one outcome only; the baselines need both")
+    target = _features(camp, res.outcomes, res.baseline_source)  # this campaign's tests, same IMs
+    shared = sorted({t.test for t in camp.tests} & set(res.outcomes["test"].astype(str)))
+    where = f"fitted on every test of {src_path} (specimen {src_spec}, {len(obs)} tests)"
+    if shared:
+        where += f"; {len(shared)} test(s) of this campaign among them (in sample)"
+    o = res.outcomes["observed"].to_numpy(int)
+    rows, rules = [], {}
+    src_feats = {"pga": pga, "pgv": pgv}
+    for name, fs in BASELINE_RULES.items():
+        rule = fit_rule(src_feats, obs.astype(bool), fs)
+        pred = rule.predict(target).astype(int)
+        col = name + CALIBRATION_SUFFIX
+        res.outcomes[f"pred_{col}"] = pred
+        row = {
+            "model": col,
+            "kind": "empirical",
+            "evaluated_on": where,
+            **score(o.astype(bool), pred).to_dict(),
+        }
+        row.update(_prob_cols(o, pred.astype(float)))
+        rows.append(row)
+        rules[col] = rule.describe(FEATURE_UNITS)
+    usable = all(np.all(np.isfinite(v) & (v > 0)) for v in (pga, pgv, target["pga"], target["pgv"]))
+    fits = {}
+    if usable:  # else (a zero or missing IM has no logarithm) the rules only, as evaluate() does
+        ln_s, ln_t = _ln_ims(pga, pgv), _ln_ims(target["pga"], target["pgv"])
+        for name, feats in LOGISTIC_MODELS.items():
+            fit = fit_logistic(np.column_stack([ln_s[f] for f in feats]), obs)
+            p = fit.predict(np.column_stack([ln_t[f] for f in feats]))
+            col = name + CALIBRATION_SUFFIX
+            res.outcomes[f"p_{col}"] = p
+            rows.append(_prob_row(col, "logistic", where, o, p))
+            fits[col] = {"features": list(feats), "intercept": fit.intercept, "coef": list(fit.coef)}
+    res.scores = pd.concat(
+        [res.scores[~res.scores["model"].isin([r["model"] for r in rows])], pd.DataFrame(rows)],
+        ignore_index=True,
+    )
+    info = {
+        "campaign": str(src_path),
+        "specimen": src_spec,
+        "tests": len(obs),
+        "toppled": int(obs.sum()),
+        "shared_tests": shared,
+        "rules": rules,
+        "logistic": fits,
+    }
+    res.meta["calibration"] = info
+    return info
+
+
 def add_transferred(
     res: ValidationResult, target_scenario: Path, spec: str, *, baseline: Any = None
 ) -> dict[str, Any]:
@@ -353,7 +482,7 @@ def add_transferred(
     α_min over all directions (:meth:`~pbr_xval.validation.scores.RockGeometry.from_scenario`).
     Returns what the report records (the fit, both geometries).
     """
-    from pbr_xval.validation.campaign import Baseline, baseline_correct, load_campaign
+    from pbr_xval.validation.campaign import load_campaign
     from pbr_xval.validation.scores import RockGeometry, transferred_baseline
 
     parts = spec.split(":")
@@ -361,17 +490,7 @@ def add_transferred(
         raise ValueError(f"--transfer {spec!r}: expected CAMPAIGN:SPECIMEN:SCENARIO (e.g. data:2:sp2.toml)")
     src_campaign, src_specimen, src_scenario = ":".join(parts[:-2]), int(parts[-2]), Path(parts[-1])
     camp = load_campaign(src_campaign, src_specimen)
-    if res.baseline_source == "sheet":
-        pga = np.array([t.sheet["pga_g"] * G_STANDARD for t in camp.tests])
-        pgv = pga * np.array([t.sheet["pgv_over_pga_s"] for t in camp.tests])
-    else:
-        base = baseline or Baseline()
-        ims = []
-        for t in camp.tests:
-            acc, dt = baseline_correct(*t.raw_acceleration(), base)
-            v = np.concatenate([[0.0], np.cumsum(dt * (acc[:-1] + acc[1:]) / 2)])
-            ims.append((float(np.max(np.abs(acc))), float(np.max(np.abs(v)))))
-        pga, pgv = (np.array(c) for c in zip(*ims, strict=True))
+    pga, pgv = campaign_ims(camp, res.baseline_source, baseline)
     source = pd.DataFrame({"pga": pga, "pgv": pgv, "observed": [int(t.toppled) for t in camp.tests]})
     o = res.outcomes
     if res.baseline_source == "sheet":
