@@ -150,6 +150,15 @@ def test_validate_calibration_option(box_campaign_files, tmp_path: Path) -> None
     bad = runner.invoke(app, [*base, "--calibration", str(tmp_path / "nowhere.csv")])
     assert bad.exit_code == 2 and "--calibration" in bad.output and "not found" in bad.output
     assert not (out / "store").exists()  # refused before running
+    one = csv.with_name("one_outcome.csv")  # same tests, every outcome 'stood'
+    lines = csv.read_text().splitlines()
+    one.write_text(
+        "\n".join([lines[0], *(",".join(r.split(",")[:4] + ["0"] + r.split(",")[5:]) for r in lines[1:])])
+        + "\n"
+    )
+    bad = runner.invoke(app, [*base, "--calibration", str(one)])
+    assert bad.exit_code == 2 and "one outcome only" in bad.output, bad.output
+    assert not (out / "store").exists()
     res = runner.invoke(app, [*base, "--calibration", str(csv)])
     assert res.exit_code == 0, res.output
     lines = [ln for ln in res.output.splitlines() if ln.startswith("Brier logistic(lnPGA)@calibration ")]
