@@ -78,3 +78,11 @@ def box_campaign_files(tmp_path: Path) -> tuple[Path, Path, list[int]]:
     scn = tmp_path / "box.toml"
     scn.write_text(BOX_SCENARIO)
     return csv, scn, observed
+
+
+def box_validate_args(csv: Path, scn: Path, out: Path) -> list[str]:
+    """``pbr-xval validate`` on the box campaign with the housner engine, the records used raw (no
+    baseline correction), 3 folds, one worker: the arguments the option tests extend."""
+    raw = ["--highpass", "0", "--lowpass", "0", "--detrend", "none", "--resample", "0"]
+    return ["validate", str(csv), "--specimen", "1", "--scenario", str(scn), "--engine", "housner",
+            "--out", str(out), "--folds", "3", "--tail", "2", "--workers", "1", "--chunk-size", "3", *raw]  # fmt: skip

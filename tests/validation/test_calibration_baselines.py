@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from .conftest import SHAKE_TABLE
+from .conftest import SHAKE_TABLE, box_validate_args
 
 G0 = 9.80665
 
@@ -143,9 +143,7 @@ def test_validate_calibration_option(box_campaign_files, tmp_path: Path) -> None
 
     csv, scn, _ = box_campaign_files
     out = tmp_path / "report"
-    raw = ["--highpass", "0", "--lowpass", "0", "--detrend", "none", "--resample", "0"]
-    base = ["validate", str(csv), "--specimen", "1", "--scenario", str(scn), "--engine", "housner",
-            "--out", str(out), "--folds", "3", "--tail", "2", "--workers", "1", "--chunk-size", "3", *raw]  # fmt: skip
+    base = box_validate_args(csv, scn, out)
     runner = CliRunner()
     bad = runner.invoke(app, [*base, "--calibration", str(tmp_path / "nowhere.csv")])
     assert bad.exit_code == 2 and "--calibration" in bad.output and "not found" in bad.output
@@ -153,7 +151,7 @@ def test_validate_calibration_option(box_campaign_files, tmp_path: Path) -> None
     one = csv.with_name("one_outcome.csv")  # same tests, every outcome 'stood'
     lines = csv.read_text().splitlines()
     one.write_text(
-        "\n".join([lines[0], *(",".join(r.split(",")[:4] + ["0"] + r.split(",")[5:]) for r in lines[1:])])
+        "\n".join([lines[0], *(",".join([*r.split(",")[:4], "0", *r.split(",")[5:]]) for r in lines[1:])])
         + "\n"
     )
     bad = runner.invoke(app, [*base, "--calibration", str(one)])

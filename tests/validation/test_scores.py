@@ -25,7 +25,7 @@ from pbr_xval.validation.scores import (
     transferred_baseline,
 )
 
-from .conftest import BOX_SCENARIO, SCANS, SHAKE_TABLE, SP1_SCENARIO
+from .conftest import BOX_SCENARIO, SCANS, SHAKE_TABLE, SP1_SCENARIO, box_validate_args
 
 
 # ------------------------------------------------------------------ scores against hand values
@@ -357,9 +357,7 @@ def test_validate_transfer_option(box_campaign_files, tmp_path) -> None:
 
     csv, scn, _ = box_campaign_files
     out = tmp_path / "report"
-    raw = ["--highpass", "0", "--lowpass", "0", "--detrend", "none", "--resample", "0"]
-    base = ["validate", str(csv), "--specimen", "1", "--scenario", str(scn), "--engine", "housner",
-            "--out", str(out), "--folds", "3", "--tail", "2", "--workers", "1", "--chunk-size", "3", *raw]  # fmt: skip
+    base = box_validate_args(csv, scn, out)
     runner = CliRunner()
     bad = runner.invoke(app, [*base, "--transfer", f"{csv}:one:{scn}"])
     assert bad.exit_code == 2 and "CAMPAIGN:SPECIMEN:SCENARIO" in bad.output
