@@ -947,7 +947,7 @@ def _slip_directions(A, b, st, mu, tdir, scale, f, rtol):
 
 
 @njit(cache=True)
-def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
+def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
     """Exact solve of eqs. 3.6–3.7 on a guessed active set, verified; a few corrections.
 
     Clamped rows (all three of a sticking contact, the normal of a sliding or impending-slip
@@ -979,12 +979,15 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
     slip); mu : (k,) static friction; cons_tol : m/s² (or m/s for impacts); max_rounds : int;
     tdir : (k, 2) unit tangential directions (x, y) of the friction of the status-3 contacts
     of the guess (other rows unused).
+    slide : (k,) bool, the contacts that slide (dynamic friction folded into A's normal
+    column): a free one that would penetrate is clamped as sliding (status 2), a free
+    non-sliding one as sticking (status 1).
 
     Returns
     -------
     (ok, f (3k,), a (3k,), status (k,) of the answer).
     """
-    ok, f, a, st, first = _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir)
+    ok, f, a, st, first = _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir, slide)
     if ok:
         return ok, f, a, st
     k = status.size
@@ -1001,7 +1004,7 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir):
                 retry = True
     if not retry:
         return ok, f, a, st
-    ok, f, a, st, _ = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td)
+    ok, f, a, st, _ = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td, slide)
     return ok, f, a, st
 
 
@@ -1012,7 +1015,7 @@ def _active_set_work(n3):
 
 
 @njit(cache=True)
-def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, ws, iws):
+def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, slide, ws, iws):
     """:func:`active_set_solve` with its common case in the caller's scratch (``ws``: ≥
     :func:`_active_set_work` (3k) floats, ``iws``: (≥ 6k,) int): a guess without impending
     slip whose first solve verifies — the first attempt of :func:`_active_set_rounds`, the
@@ -1028,7 +1031,7 @@ def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, ws, iws
         if _clamped_solve_into(A, b, status, scale, ws[3 * n3 :], iws[0:n3], iws[n3 : 2 * n3], f):
             if _check_into(A, b, f, status, mu, cons_tol, tdir, a):
                 return True, f, a, status
-    return active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir)
+    return active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide)
 
 
 @njit(cache=True)
@@ -1067,7 +1070,7 @@ def _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, tdir):
 
 
 @njit(cache=True)
-def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir):
+def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
     """The rounds of :func:`active_set_solve` from one guess: (ok, f, a, status, the first
     answer's forces (3k,))."""
     st = status.copy()
@@ -1134,7 +1137,7 @@ def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir):
                 st[i] = 0
                 changed = True
             elif st[i] == 0 and a[3 * i] < -1e-9 * bmax:
-                st[i] = 2 if status[i] == 2 else 1
+                st[i] = 2 if slide[i] else 1
                 changed = True
         if not changed:
             # the normal statuses hold: correct the friction statuses (impending slip)
@@ -1644,7 +1647,9 @@ def _forces(
                 else:
                     status[a] = 1
     info[I_SOLVES] += 1
-    ok, f, acc, st = _active_set_solve_into(A, b, status, mu_vec, 2.0 * cons, k + 2, tdir, sws, iws[k:])
+    ok, f, acc, st = _active_set_solve_into(
+        A, b, status, mu_vec, 2.0 * cons, k + 2, tdir, slide, sws, iws[k:]
+    )
     if not ok:
         return F, tau, False
     info[I_FAST] += 1
@@ -2487,7 +2492,9 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
             guess[i] = 1
     j = np.zeros(n3)
     if mu_s > 0:
-        ok, j, _, _ = active_set_solve(A, q, guess, np.full(k, mu_s), 0.0, k + 2, np.zeros((k, 2)))
+        ok, j, _, _ = active_set_solve(
+            A, q, guess, np.full(k, mu_s), 0.0, k + 2, np.zeros((k, 2)), np.zeros(k, dtype=np.bool_)
+        )
         if not ok:
             return IMPACT_CONE, A, q, j
     qn = np.empty(k)

@@ -34,7 +34,7 @@ def test_box_push_from_a_sticking_guess(ratio: float) -> None:
     mu = 0.2
     A, b, J, F_ext = _box_friction_problem(ratio * MASS * G)
     ok, f, a, st = kernel.active_set_solve(
-        A, b, np.ones(4, dtype=np.int64), np.full(4, mu), 0.0, 6, np.zeros((4, 2))
+        A, b, np.ones(4, dtype=np.int64), np.full(4, mu), 0.0, 6, np.zeros((4, 2)), np.zeros(4, bool)
     )
     assert ok
     u_dot = box_inverse_mass() @ (J.T @ f + F_ext)
@@ -61,11 +61,15 @@ def test_wrong_direction_is_corrected_or_refused() -> None:
     A, b, _, _ = _box_friction_problem(0.25 * MASS * G)
     th = np.pi + 0.4
     td = np.tile([np.cos(th), np.sin(th)], (4, 1))
-    ok, f, _, _ = kernel.active_set_solve(A, b, np.full(4, 3, dtype=np.int64), np.full(4, mu), 0.0, 1, td)
+    ok, f, _, _ = kernel.active_set_solve(
+        A, b, np.full(4, 3, dtype=np.int64), np.full(4, mu), 0.0, 1, td, np.zeros(4, bool)
+    )
     assert ok
     np.testing.assert_allclose(f.reshape(4, 3)[:, 2], 0.0, atol=1e-9 * MASS * G)
     td = np.tile([1.0, 0.0], (4, 1))  # friction along +x, with the push
-    ok, _, _, _ = kernel.active_set_solve(A, b, np.full(4, 3, dtype=np.int64), np.full(4, mu), 0.0, 1, td)
+    ok, _, _, _ = kernel.active_set_solve(
+        A, b, np.full(4, 3, dtype=np.int64), np.full(4, mu), 0.0, 1, td, np.zeros(4, bool)
+    )
     assert not ok
 
 
@@ -95,7 +99,7 @@ def test_recorded_problems_agree_with_the_cone_solver(i: int) -> None:
     at_cone = ft >= mu_s * F[:, 0] * (1 - dynamics.SLIP_GUESS_RTOL)
     guess = np.where(F[:, 0] > 0, np.where(slide, 2, np.where(at_cone, 3, 1)), 0).astype(np.int64)
     td = np.divide(F[:, 1:], ft[:, None], out=np.zeros((k, 2)), where=ft[:, None] > 0)
-    ok, f, a, st = kernel.active_set_solve(A, b, guess, mu, 0.0, k + 2, td)
+    ok, f, a, st = kernel.active_set_solve(A, b, guess, mu, 0.0, k + 2, td, slide)
     assert ok
     bmax = np.abs(b).max()
     ref = cone.solve_friction_cone(A, b, mu_cone, tol=1e-13, max_iter=20000, restart_after=None)

@@ -97,7 +97,7 @@ def test_active_set_resting_box_statics() -> None:
     """At rest under gravity: f_n = m g / 4 per corner (symmetry), no friction, no motion."""
     A, b, gf, W, wrench, _ = _box_problem(0.0)
     ok, f, _, _ = kernel.active_set_solve(
-        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2))
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2)), np.zeros(4, bool)
     )
     assert ok
     F = f.reshape(4, 3)
@@ -114,7 +114,7 @@ def test_active_set_shares_friction_by_cone_radius() -> None:
     P = 0.3 * MASS * G
     A, b, gf, W, wrench, _ = _box_problem(P)
     ok, f, _, _ = kernel.active_set_solve(
-        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2))
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 0.0, 5, np.zeros((4, 2)), np.zeros(4, bool)
     )
     assert ok
     F = f.reshape(4, 3)
@@ -137,7 +137,7 @@ def test_active_set_sticking_with_spin_is_least_squares() -> None:
     A, b, gf, W, wrench, cons = _box_problem(0.0, spin)
     assert cons == pytest.approx(spin**2 * np.linalg.norm(CORNERS[0]), rel=1e-12)
     ok, f, a, _ = kernel.active_set_solve(
-        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 2 * cons, 5, np.zeros((4, 2))
+        A, b, np.ones(4, dtype=np.int64), np.full(4, 0.5), 2 * cons, 5, np.zeros((4, 2)), np.zeros(4, bool)
     )
     assert ok
     F = f.reshape(4, 3)

@@ -21,10 +21,10 @@ from pbr_xval.runner import run_scene
 from pbr_xval.scene import compile_scene
 
 
-def _problem(seed: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+def _problem(seed: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, np.ndarray]:
     """A random rock's contact problem of ``k`` contacts with a random status guess (0 free,
     1 stick, 2 slide on the sliding ones, 3 impending slip with a random direction): (A, b,
-    status, tdir, cons_tol)."""
+    status, tdir, cons_tol, slide (k,) bool)."""
     rng = np.random.default_rng(seed)
     q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
     R = q * np.sign(np.linalg.det(q))
@@ -43,7 +43,7 @@ def _problem(seed: int, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     tdir = np.zeros((k, 2))
     ang = rng.uniform(0.0, 2.0 * np.pi, k)
     tdir[:, 0], tdir[:, 1] = np.cos(ang), np.sin(ang)
-    return A, b, status, tdir, 2.0 * cons
+    return A, b, status, tdir, 2.0 * cons, slide
 
 
 def _same(x: np.ndarray, y: np.ndarray) -> bool:
@@ -58,14 +58,16 @@ def test_active_set_solve_into_equals_active_set_solve(k: int) -> None:
     answers a share of them and the fallback the others (both paths exercised)."""
     fast = 0
     for seed in range(300):
-        A, b, status, tdir, cons = _problem(1000 * k + seed, k)
+        A, b, status, tdir, cons, slide = _problem(1000 * k + seed, k)
         mu = np.full(k, 0.6)
         for _ in range(2):
-            ok0, f0, a0, st0 = kernel.active_set_solve(A, b, status.copy(), mu, cons, k + 2, tdir.copy())
+            ok0, f0, a0, st0 = kernel.active_set_solve(
+                A, b, status.copy(), mu, cons, k + 2, tdir.copy(), slide
+            )
             ws = np.full(kernel._active_set_work(3 * k), np.nan)
             iws = np.full(6 * k, -7, dtype=np.int64)
             ok1, f1, a1, st1 = kernel._active_set_solve_into(
-                A, b, status.copy(), mu, cons, k + 2, tdir.copy(), ws, iws
+                A, b, status.copy(), mu, cons, k + 2, tdir.copy(), slide, ws, iws
             )
             assert ok0 == ok1
             assert _same(f0, f1) and _same(a0, a1) and np.array_equal(st0, st1)
