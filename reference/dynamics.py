@@ -643,9 +643,10 @@ class RigidBodySolver:
         ft = np.hypot(prev_t[:, 0], prev_t[:, 1])
         status = np.where((status == 3) & (ft == 0.0), 1, status)
         tdir = np.divide(prev_t, ft[:, None], out=np.zeros((k, 2)), where=ft[:, None] > 0)
-        ok, f, a, st = kernel.active_set_solve(
-            A, b, status, np.full(k, self.mu_s), cons_tol, k + 2, tdir, c.slide
-        )
+        mu = np.full(k, self.mu_s)
+        ok, f, a, st = kernel.active_set_solve(A, b, status, mu, cons_tol, k + 2, tdir, c.slide)
+        if not ok:
+            ok, f, a, st = kernel.active_set_retry(A, b, status, mu, cons_tol, k + 2, tdir, c.slide, c.stab)
         if ok:
             self.stats.lcp_fast_path += 1
         else:

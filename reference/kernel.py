@@ -60,6 +60,7 @@ __all__ = [
     "STEP_IMPACT",
     "STEP_OK",
     "STEP_REJECTED",
+    "active_set_retry",
     "active_set_solve",
     "contact_problem",
     "impact_impulses",
@@ -1009,6 +1010,52 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
 
 
 @njit(cache=True)
+def active_set_retry(A, b, status, mu, cons_tol, max_rounds, tdir, slide, stab):
+    """The resting solve's second try, after :func:`active_set_solve` failed from ``status``
+    (same arguments, plus ``stab`` (3k,), m/s², the velocity-stabilisation part of b); run
+    only then, so that every solve the first try answers is unchanged. Returns as
+    :func:`active_set_solve`.
+
+    Two cases the first try cannot answer (issue 23, ninth pass; recorded in SP1's campaign):
+
+    * a stale impending slip: a contact guessed at the cone's boundary (status 3, from the
+      last solve) whose tangential acceleration is now zero is never released by the rounds
+      (they release it only when its acceleration goes with its friction), and when the
+      friction another sticking contact needs leaves that one's cone, the rounds cycle
+      between "stick" and "impending slip" there. Retried from the guess with every
+      status-3 contact sticking.
+    * a stabilisation no force can reach: the normal rows of ``stab`` are min(v_n, 0)/dt
+      (only approaching contacts) and its components below 1e-8 m/s are zeroed, so it is not
+      the acceleration field of a rigid body; on three sticking contacts (9 rows, rank 6) its
+      component outside A's range is left in the clamped rows' least-squares residual, and
+      exceeds the tolerance (1e-9 |b| + ``cons_tol``, which bounds only the centripetal term).
+      Retried with ``cons_tol`` + 2 |stab|₂, a bound on that component (an orthogonal
+      projection is no longer than the vector), as ``cons_tol`` = 2 |ω|² r bounds the
+      centripetal one. Every other condition of eqs. 3.6–3.7 is still verified.
+    """
+    k = status.size
+    n_slip = _count_slip(status)
+    stick = status.copy()
+    for i in range(k):
+        if stick[i] == 3:
+            stick[i] = 1
+    if n_slip > 0:
+        ok, f, a, st = active_set_solve(A, b, stick, mu, cons_tol, max_rounds, tdir, slide)
+        if ok:
+            return ok, f, a, st
+    s2 = 0.0
+    for x in stab:
+        s2 += x * x
+    if s2 == 0.0:
+        return False, np.zeros(b.size), b.copy(), status.copy()
+    tol2 = cons_tol + 2.0 * math.sqrt(s2)
+    ok, f, a, st = active_set_solve(A, b, status, mu, tol2, max_rounds, tdir, slide)
+    if ok or n_slip == 0:
+        return ok, f, a, st
+    return active_set_solve(A, b, stick, mu, tol2, max_rounds, tdir, slide)
+
+
+@njit(cache=True)
 def _active_set_work(n3):
     """Floats of :func:`_active_set_solve_into`'s scratch for 3k = ``n3`` rows."""
     return 3 * n3 + _clamped_work(n3)
@@ -1650,6 +1697,8 @@ def _forces(
     ok, f, acc, st = _active_set_solve_into(
         A, b, status, mu_vec, 2.0 * cons, k + 2, tdir, slide, sws, iws[k:]
     )
+    if not ok:
+        ok, f, acc, st = active_set_retry(A, b, status, mu_vec, 2.0 * cons, k + 2, tdir, slide, stab)
     if not ok:
         return F, tau, False
     info[I_FAST] += 1
