@@ -25,9 +25,9 @@ a projected iteration on the exact cone) or, when it did not converge, Lemke's m
 16-facet friction pyramid (``cone.solve_friction_pyramid``) — independent algorithms. Sticking
 friction on three contacts is statically indeterminate (the forces' split is not unique), so the
 answers are compared through the contact accelerations a = A f + b, which the body's
-acceleration fixes: on the normal rows to 1e-8 of |b| (measured: 2e-10), on all rows to 1e-10
-where the cone solver converged (measured: 4e-13); the pyramid's tangential accelerations
-differ by up to 0.35 % of |b| on impending-slip contacts (a polygonal cone), not compared.
+acceleration fixes: on the normal rows to 1e-8 of |b| (measured: 3e-10; 6e-9 on 474 problems
+of ten other SP1/SP2 tests), on all rows to 1e-10 where the cone solver converged (measured:
+4e-13) and to 1e-5 where the pyramid answered (measured: 5e-7; 1.4e-6 on the other tests).
 The conditions of eqs. 3.6–3.7 (f_n ≥ 0, the static cone, a_n ≥ 0 on free contacts, a_n = 0 on
 loaded ones) are checked here on the answer itself.
 """
@@ -83,8 +83,12 @@ def test_recorded_problem_fails_the_first_try_and_the_retry_answers_it(i: int) -
     # the general solver's (independent) answer: the same accelerations
     a_gen = A @ p["f"] + b
     np.testing.assert_allclose(a[0::3], a_gen[0::3], rtol=0.0, atol=1e-8 * bmax)
-    if not bool(p["fallback"]):
-        np.testing.assert_allclose(a, a_gen, rtol=0.0, atol=1e-10 * bmax)
+    atol = 1e-5 if bool(p["fallback"]) else 1e-10
+    np.testing.assert_allclose(a, a_gen, rtol=0.0, atol=atol * bmax)
+    # impending slip: the tangential acceleration opposes the friction (maximum dissipation)
+    for j in np.flatnonzero(st == 3):
+        s_hat = F[j, 1:] / np.hypot(F[j, 1], F[j, 2])
+        assert float(s_hat @ a[3 * j + 1 : 3 * j + 3]) <= 1e-9 * bmax + float(p["cons"])
 
 
 def test_recorded_problems_cover_both_cases() -> None:
