@@ -20,7 +20,7 @@ Figures, each printed next to its goal as a ratio (value / goal; ≤ 1 meets it)
    the compiled time loop of issue 23's second pass, 3.1× and 11.8× after it, 1.9× and 6.0×
    after its third pass, 1.5× and 4.0× after its fourth, 1.2–1.3× and 2.0–2.9× after its
    fifth, 0.5–1.0× and 2.0–2.4× after its seventh (the sixth's change was reverted), 0.8–1.2×
-   and 1.4–1.7× after its eighth (a free sliding contact re-clamped as sliding), 0.7–0.9× and
+   and 1.4–1.7× after its eighth (a free sliding contact re-clamped as sliding), 0.9–0.95× and
    1.4–1.5× after its ninth (the resting solve's second try) — see
    ``reference/PERFORMANCE.md``). SP1's two engines are run alternately, 15 times each, and the
    ratio of their best CPU times is the figure (the median of the 15 pair ratios beside it): their

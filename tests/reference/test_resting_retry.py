@@ -26,7 +26,7 @@ a projected iteration on the exact cone) or, when it did not converge, Lemke's m
 friction on three contacts is statically indeterminate (the forces' split is not unique), so the
 answers are compared through the contact accelerations a = A f + b, which the body's
 acceleration fixes: on the normal rows to 1e-8 of |b| (measured: 3e-10; 6e-9 on 474 problems
-of ten other SP1/SP2 tests), on all rows to 1e-10 where the cone solver converged (measured:
+of eleven other SP1/SP2 tests), on all rows to 1e-10 where the cone solver converged (measured:
 4e-13) and to 1e-5 where the pyramid answered (measured: 5e-7; 1.4e-6 on the other tests).
 The conditions of eqs. 3.6–3.7 (f_n ≥ 0, the static cone, a_n ≥ 0 on free contacts, a_n = 0 on
 loaded ones) are checked here on the answer itself.
