@@ -47,16 +47,10 @@ TAIL_S = 3.0
 
 
 def _scene(scn: Any, motion: Any) -> Any:
-    """The scene of ``reference_campaign._scene`` (stop on topple and at rest)."""
-    from pbr_xval.scene import compile_scene
+    """The scene of ``reference_campaign._scene`` (stop on topple and at rest): the same runs."""
+    from reference_campaign import _scene as campaign_scene  # benchmarks/ is on sys.path[0]
 
-    exc = {
-        "type": "record", "path": str(motion.path), "format": "table", "units": "m/s2", "dt": motion.dt,
-        "azimuth_deg": float(scn.excitation.azimuth_deg),
-    }  # fmt: skip
-    out = scn.with_value("excitation", exc).with_value("duration", float(motion.duration) + TAIL_S)
-    out = out.with_value("output_dt", 0.01).with_value("toppling.stop_at_rest", True)
-    return compile_scene(out)
+    return campaign_scene(scn, motion)
 
 
 def _outside(A: np.ndarray, x: np.ndarray) -> float:
@@ -87,13 +81,7 @@ def main() -> None:
     def recording(self: Any, A: np.ndarray, b: np.ndarray, c: Any, diag: bool, cons_tol: float) -> np.ndarray:
         # the guess as _solve_resting makes it
         k = c.idx.size
-        status = self._active[c.idx]
-        status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
-        prev_t = self._prev_force[c.idx, 1:]
-        ft = np.hypot(prev_t[:, 0], prev_t[:, 1])
-        status = np.where((status == 3) & (ft == 0.0), 1, status)
-        tdir = np.divide(prev_t, ft[:, None], out=np.zeros((k, 2)), where=ft[:, None] > 0)
-        mu = np.full(k, self.mu_s)
+        status, tdir, mu = self._resting_guess(c)
         ok = kernel.active_set_solve(A, b, status, mu, cons_tol, k + 2, tdir, c.slide)[0]
         fallbacks = self.stats.cone_fallbacks
         full = self.stats.full_solves

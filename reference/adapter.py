@@ -33,11 +33,30 @@ from pbr_xval.status import RunStatus
 if TYPE_CHECKING:
     from pbr_xval.scene import Scene
 
-__all__ = ["BUDGET_CHECK_STEPS", "BUDGET_GRACE_S", "MAX_ACCEPT_EVENTS", "ReferenceEngine", "basal_nodes"]
+__all__ = [
+    "BUDGET_CHECK_STEPS",
+    "BUDGET_GRACE_S",
+    "MAX_ACCEPT_EVENTS",
+    "TIMING_DIAGNOSTICS",
+    "ReferenceEngine",
+    "basal_nodes",
+]
 
 #: a step accepted after the step-back limit is reported as an event (the first this many
 #: of a run; ``min_timestep_hits`` counts them all)
 MAX_ACCEPT_EVENTS = 20
+
+#: the run's diagnostics that are timings (CPU or wall seconds): they differ from run to run and
+#: are no part of the result (a comparison of two runs' diagnostics leaves them out)
+TIMING_DIAGNOSTICS = (
+    "wall_s",
+    "cpu_s",
+    "wall_per_simulated_s",
+    "lcp_time_fraction",
+    "lcp_time_s",
+    "kernel_time_s",
+    "jit_compile_cpu_s",
+)
 
 #: simulated seconds of grace of the cost budget (``max_cpu_per_simulated_s``): the budget of a
 #: run at simulated time t is max(t, this) × the setting (start-up: the first kernel call)

@@ -630,12 +630,11 @@ class RigidBodySolver:
         wrench = gf.T @ f
         return m * a_load + wrench[:3], wrench[3:], f
 
-    def _solve_resting(
-        self, A: np.ndarray, b: np.ndarray, c: _Contacts, diag: bool, cons_tol: float
-    ) -> np.ndarray:
-        t0 = time.perf_counter()
+    def _resting_guess(self, c: _Contacts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The active-set guess of a resting solve from the last solve's statuses and forces:
+        (status (k,) int: 0 free, 1 sticking, 2 sliding, 3 impending slip; tdir (k, 2): the
+        impending slip's friction direction from the last solve; mu (k,) static friction)."""
         k = c.idx.size
-        self.stats.lcp_solves += 1
         status = self._active[c.idx]
         status = np.where(c.slide, np.where(status == 0, 0, 2), np.where(status == 2, 1, status))
         # impending slip (status 3): the friction's direction from the last solve
@@ -643,7 +642,15 @@ class RigidBodySolver:
         ft = np.hypot(prev_t[:, 0], prev_t[:, 1])
         status = np.where((status == 3) & (ft == 0.0), 1, status)
         tdir = np.divide(prev_t, ft[:, None], out=np.zeros((k, 2)), where=ft[:, None] > 0)
-        mu = np.full(k, self.mu_s)
+        return status, tdir, np.full(k, self.mu_s)
+
+    def _solve_resting(
+        self, A: np.ndarray, b: np.ndarray, c: _Contacts, diag: bool, cons_tol: float
+    ) -> np.ndarray:
+        t0 = time.perf_counter()
+        k = c.idx.size
+        self.stats.lcp_solves += 1
+        status, tdir, mu = self._resting_guess(c)
         ok, f, a, st = kernel.active_set_solve(A, b, status, mu, cons_tol, k + 2, tdir, c.slide)
         if not ok:
             ok, f, a, st = kernel.active_set_retry(A, b, status, mu, cons_tol, k + 2, tdir, c.slide, c.stab)
