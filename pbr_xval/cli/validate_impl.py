@@ -390,9 +390,9 @@ def _ensemble_inputs(
 def _check_calibration(spec: str, specimen: int, baseline_source: str, has_sheet: bool) -> str | None:
     """What is wrong with ``--calibration CAMPAIGN[:SPECIMEN]`` (None: nothing), before any run."""
     from pbr_xval.validation.campaign import CampaignError, load_campaign
+    from pbr_xval.validation.campaign_report import calibration_source
 
-    head, sep, tail = spec.rpartition(":")
-    path, spec_n = (head, int(tail)) if sep and tail.strip().isdigit() else (spec, specimen)
+    path, spec_n = calibration_source(spec, specimen)
     try:
         camp = load_campaign(path, spec_n)
     except (CampaignError, OSError) as exc:

@@ -31,6 +31,7 @@ __all__ = [
     "CALIBRATION_SUFFIX",
     "ValidationResult",
     "add_calibration_baselines",
+    "calibration_source",
     "campaign_ims",
     "evaluate",
     "write_report",
@@ -395,6 +396,12 @@ def campaign_ims(camp: Campaign, source: str, baseline: Any = None) -> tuple[np.
 CALIBRATION_SUFFIX = "@calibration"
 
 
+def calibration_source(spec: str, specimen: int) -> tuple[str, int]:
+    """``--calibration CAMPAIGN[:SPECIMEN]`` → (campaign path, specimen); ``specimen`` when none is given."""
+    head, sep, tail = spec.rpartition(":")
+    return (head, int(tail)) if sep and tail.strip().isdigit() else (spec, int(specimen))
+
+
 def add_calibration_baselines(
     res: ValidationResult, spec: str, specimen: int, *, baseline: Any = None
 ) -> dict[str, Any]:
@@ -413,8 +420,7 @@ def add_calibration_baselines(
     from pbr_xval.validation.campaign import load_campaign
     from pbr_xval.validation.scores import LOGISTIC_MODELS, _ln_ims, fit_logistic
 
-    head, sep, tail = spec.rpartition(":")
-    src_path, src_spec = (head, int(tail)) if sep and tail.strip().isdigit() else (spec, int(specimen))
+    src_path, src_spec = calibration_source(spec, specimen)
     camp = load_campaign(src_path, src_spec)
     pga, pgv = campaign_ims(camp, res.baseline_source, baseline)
     obs = np.array([int(t.toppled) for t in camp.tests])
@@ -433,14 +439,7 @@ def add_calibration_baselines(
         pred = rule.predict(target).astype(int)
         col = name + CALIBRATION_SUFFIX
         res.outcomes[f"pred_{col}"] = pred
-        row = {
-            "model": col,
-            "kind": "empirical",
-            "evaluated_on": where,
-            **score(o.astype(bool), pred).to_dict(),
-        }
-        row.update(_prob_cols(o, pred.astype(float)))
-        rows.append(row)
+        rows.append(_prob_row(col, "empirical", where, o, pred.astype(float)))  # its 0/1 as P
         rules[col] = rule.describe(FEATURE_UNITS)
     usable = all(np.all(np.isfinite(v) & (v > 0)) for v in (pga, pgv, target["pga"], target["pgv"]))
     fits = {}
