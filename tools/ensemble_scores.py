@@ -26,6 +26,10 @@ prints, per folder:
   (``group_folds(records, 2)``), each half scored with the lab and field ensembles' P of the given folders
   against the logistic laws and the rules fitted on the *other* half (``validate --calibration``'s
   ``add_calibration_baselines``) and against the transferred law.
+* ``bands``: where the Brier score comes from — per band of the sheet's PGV/PGA (the lab's edges 0.06, 0.08,
+  0.10, 0.15 s) and per test day: tests, topples observed, the summed P of the ensemble and of the best
+  out-of-fold logistic (expected topples), and each one's share of the specimen's Brier; then the Brier of both
+  with the worst day left out.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -39,6 +43,7 @@ Usage::
     python tools/ensemble_scores.py split /tmp/ens/sp1 15,19,39,…   # Brier on the listed tests and on the others
     python tools/ensemble_scores.py sessions /tmp/ens/sp1 /tmp/ens/sp2
     python tools/ensemble_scores.py repeats
+    python tools/ensemble_scores.py bands /tmp/ens/sp1 /tmp/ens/sp2
     python tools/ensemble_scores.py rehearse 1 /tmp/ens/sp1_lab /tmp/ens/sp1_field
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
@@ -288,6 +293,42 @@ def repeats() -> None:
             )
 
 
+def bands(*folders: str) -> None:
+    """Expected against observed topples and the Brier's share per sheet PGV/PGA band and per test day."""
+    ex = pd.read_csv(CAMPAIGN / "experiments.csv", dtype={"test": str})[["test", "date"]]
+    for folder in folders:
+        oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str}).merge(ex, on="test")
+        oc["p_ensemble"] = _p_ensemble(folder, oc.test.tolist())
+        o = oc.observed.to_numpy(float)
+        logit = [c for c in oc if c.startswith("p_logistic")]
+        best = min(logit, key=lambda c: float(np.mean((oc[c] - o) ** 2)))
+        oc["se_ens"] = (oc.p_ensemble - o) ** 2
+        oc["se_log"] = (oc[best] - o) ** 2
+        oc["band"] = pd.cut(oc.sheet_pgv_over_pga_s, [0, 0.06, 0.08, 0.10, 0.15, np.inf])
+        n = len(oc)
+        print(
+            f"{folder}: {n} tests, ensemble Brier {oc.se_ens.mean():.4f}, best logistic {best} {oc.se_log.mean():.4f}"
+        )
+        for key in ("band", "date"):
+            g = oc.groupby(key, observed=True).agg(
+                tests=("test", "size"),
+                toppled=("observed", "sum"),
+                expected_ensemble=("p_ensemble", "sum"),
+                expected_logistic=(best, "sum"),
+                brier_share_ensemble=("se_ens", "sum"),
+                brier_share_logistic=("se_log", "sum"),
+            )
+            g[["brier_share_ensemble", "brier_share_logistic"]] /= n
+            print(g.round(4).to_string())
+        worst = oc.groupby("date").se_ens.sum().idxmax()
+        rest = oc.date != worst
+        print(
+            f"  without day {worst} ({int((~rest).sum())} tests, {int(oc.observed[~rest].sum())} toppled, "
+            f"ensemble expected {oc.p_ensemble[~rest].sum():.1f}): ensemble {oc.se_ens[rest].mean():.4f}, "
+            f"{best} {oc.se_log[rest].mean():.4f} ({100 * (oc.se_ens[rest].mean() / oc.se_log[rest].mean() - 1):+.0f} %)"
+        )
+
+
 def rehearse(specimen: str, lab: str, field: str) -> None:
     """The held-out judgement rehearsed on the two record halves of the calibration campaign."""
     import tempfile
@@ -345,6 +386,7 @@ COMMANDS = {
     "sessions": sessions,
     "repeats": repeats,
     "rehearse": rehearse,
+    "bands": bands,
 }
 
 if __name__ == "__main__":
