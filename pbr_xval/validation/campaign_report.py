@@ -60,7 +60,9 @@ class ValidationResult:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-def _features(campaign: Campaign, outcomes: pd.DataFrame, source: str) -> dict[str, np.ndarray]:
+def _features(outcomes: pd.DataFrame, source: str) -> dict[str, np.ndarray]:
+    """The rules' and logistic laws' intensity measures of the rows of ``outcomes``: PGA (m/s²) and PGV
+    (m/s), shape (tests,), from the lab sheet (``source == "sheet"``) or the corrected records."""
     if source == "sheet":
         pga = outcomes["sheet_pga_m_s2"].to_numpy(float)
         return {"pga": pga, "pgv": pga * outcomes["sheet_pgv_over_pga_s"].to_numpy(float)}
@@ -130,7 +132,7 @@ def evaluate(
         score_rows.append(
             {"model": eng, "kind": "physics", "evaluated_on": "all tests (no fitting)", **s.to_dict()}
         )
-    feats = _features(campaign, out, baseline_source)
+    feats = _features(out, baseline_source)
     rules_all = {}
     for name, fs in BASELINE_RULES.items():
         if k >= 2:
@@ -426,7 +428,7 @@ def add_calibration_baselines(
     obs = np.array([int(t.toppled) for t in camp.tests])
     if len(set(obs.tolist())) < 2:
         raise ValueError(f"{src_path}: specimen {src_spec} has one outcome only; the baselines need both")
-    target = _features(camp, res.outcomes, res.baseline_source)  # this campaign's tests, same IMs
+    target = _features(res.outcomes, res.baseline_source)  # this campaign's tests, same IMs
     shared = sorted({t.test for t in camp.tests} & set(res.outcomes["test"].astype(str)))
     where = f"fitted on every test of {src_path} (specimen {src_spec}, {len(obs)} tests)"
     if shared:
