@@ -651,9 +651,12 @@ class RigidBodySolver:
         k = c.idx.size
         self.stats.lcp_solves += 1
         status, tdir, mu = self._resting_guess(c)
-        ok, f, a, st = kernel.active_set_solve(A, b, status, mu, cons_tol, k + 2, tdir, c.slide)
+        # A and tdir in the compiled callers' layout (kernel.layout_a: same values), so that
+        # this call uses their compilation of the solve
+        A_, tdir_ = kernel.layout_a(A), kernel.layout_a(tdir)
+        ok, f, a, st = kernel.active_set_solve(A_, b, status, mu, cons_tol, k + 2, tdir_, c.slide)
         if not ok:
-            ok, f, a, st = kernel.active_set_retry(A, b, status, mu, cons_tol, k + 2, tdir, c.slide, c.stab)
+            ok, f, a, st = kernel.active_set_retry(A_, b, status, mu, cons_tol, k + 2, tdir_, c.slide, c.stab)
         if ok:
             self.stats.lcp_fast_path += 1
         else:

@@ -249,6 +249,18 @@ def _norm3(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
+def layout_a(x: np.ndarray) -> np.ndarray:
+    """A copy of the 2-D float array ``x`` (same shape and values) that numba types with
+    layout 'A' — the layout of the workspace views of :func:`_mat` — for calls from Python
+    into the compiled solves (:func:`active_set_solve`, :func:`active_set_retry`): with a
+    C-contiguous argument such a call would compile the solve's whole call tree a second time
+    (~13 s cold). A view of every second column of a buffer twice as wide (never contiguous,
+    whatever the shape, as long as ``x`` has more than one element)."""
+    out = np.empty((x.shape[0], 2 * x.shape[1]))[:, ::2]
+    out[...] = x
+    return out
+
+
 @njit(cache=True)
 def _mat(buf, o, n, m):
     """The (n, m) row-major view of ``buf[o : o + n m]`` (1-D, contiguous): the same elements
@@ -511,9 +523,11 @@ def contact_problem(R, lm, inertia_inv, mass, nodes_c, slide, sdir, stab, a_rel,
     """
     k = nodes_c.shape[0]
     n3 = 3 * k
-    A = np.empty((n3, n3))
+    # A and gf in the layout of :func:`_forces`' workspace views ('A', :func:`_mat`): one
+    # compilation of :func:`_contact_problem_into` for both callers
+    A = _mat(np.empty(n3 * n3), 0, n3, n3)
     b = np.empty(n3)
-    gf = np.empty((n3, 6))
+    gf = _mat(np.empty(n3 * 6), 0, n3, 6)
     work = np.empty(n3 * 9 + 3 * k + 45)
     cons = _contact_problem_into(
         R, lm, inertia_inv, mass, nodes_c, np.arange(k), slide, sdir, stab, a_rel, mu_d, A, b, gf, work
@@ -844,8 +858,11 @@ def _solve_status(A, b, st, mu, tdir, scale):
     m = _count_slip(st)
     if m == 0:
         return _clamped_solve(A, b, st, scale)
-    Af = A.copy()
     n3 = A.shape[0]
+    # a copy of A in the layout of :func:`_forces`' A ('A', :func:`_mat`): one compilation of
+    # :func:`_clamped_solve`
+    Af = _mat(np.empty(n3 * n3), 0, n3, n3)
+    Af[:] = A
     for i in range(st.size):
         if st[i] == 3:
             c0 = mu[i] * tdir[i, 0]
@@ -993,7 +1010,10 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
         return ok, f, a, st
     k = status.size
     guess = status.copy()
-    td = tdir.copy()
+    # a copy of tdir in the layout of tdir's in :func:`_forces` ('A', :func:`_mat`), so that
+    # both calls below use one compilation of :func:`_active_set_rounds`
+    td = _mat(np.empty(2 * k), 0, k, 2)
+    td[:] = tdir
     retry = False
     for i in range(k):
         if status[i] == 1 and mu[i] > 0:
@@ -1342,7 +1362,7 @@ def lcp_unique(M, q):
     qmax, mmax = _lcp_scales(M, q)
     idx = np.empty(n, dtype=np.int64)
     for mask in range(1 << n):
-        zt, solved = _subset_solution(M, q, mask, idx, False)
+        zt, solved = _subset_solution(M, q, mask, idx, np.bool_(False))  # not a literal: one compilation
         if not solved:
             continue
         zmax = 0.0
@@ -1432,7 +1452,7 @@ def lcp_select(M, q, ref):
     idx = np.empty(n, dtype=np.int64)
     found = False
     for mask in range(1 << n):
-        zt, solved = _subset_solution(M, q, mask, idx, True)
+        zt, solved = _subset_solution(M, q, mask, idx, np.bool_(True))
         if not solved:
             continue
         zmax = 0.0
@@ -1807,9 +1827,25 @@ def _step_work(n_nodes, k_max):
     return np.empty(nf), np.empty(max(7 * k_max, 1), dtype=np.int64)
 
 
-@njit(cache=True)
-def step(sv, prm, ext, inertia_inv, nodes, cand, active, prev_force, pred, pred_idx, out_sv, out_gaps, info):
-    """:func:`_step` with a fresh workspace (the engine's single steps)."""
+def step(
+    sv: np.ndarray,
+    prm: np.ndarray,
+    ext: np.ndarray,
+    inertia_inv: np.ndarray,
+    nodes: np.ndarray,
+    cand: np.ndarray,
+    active: np.ndarray,
+    prev_force: np.ndarray,
+    pred: np.ndarray,
+    pred_idx: np.ndarray,
+    out_sv: np.ndarray,
+    out_gaps: np.ndarray,
+    info: np.ndarray,
+) -> int:
+    """:func:`_step` with a fresh workspace (the engine's single steps; arguments and return
+    as :func:`_step`'s). A Python function: compiled, this two-line wrapper cost ~5 s of the
+    cold JIT compile (numba links and re-optimises the callee's whole call tree into every
+    compiled caller)."""
     swf, swi = _step_work(nodes.shape[0], 0)
     return _step(
         sv,
@@ -1890,14 +1926,17 @@ def _step(
     ped_kind = int(prm[P_PED_KIND])
     hx, hy = prm[P_HX], prm[P_HY]
     nn = nodes.shape[0]
-    r0s = _mat(swf, 0, nn, 3)
+    # C-layout views (reshape), as the arrays of :func:`_kinematics` and of the Python path:
+    # each layout of an argument is a separate compilation of the callee (and of its callees)
+    r0s = swf[0 : 3 * nn].reshape((nn, 3))
     gaps0 = swf[3 * nn : 4 * nn]
-    vel0 = _mat(swf, 4 * nn, nn, 3)
+    vel0 = swf[4 * nn : 7 * nn].reshape((nn, 3))
     o = 7 * nn
     x0 = swf[o : o + 3]
     v0 = swf[o + 3 : o + 6]
     l0 = swf[o + 6 : o + 9]
-    R0 = _mat(swf, o + 9, 3, 3)
+    # R0 and the vectors below: C-layout views too, as R1 (``wk[9]``)
+    R0 = swf[o + 9 : o + 18].reshape((3, 3))
     for c in range(3):
         x0[c] = sv[c]
         v0[c] = sv[3 + c]
@@ -1909,7 +1948,7 @@ def _step(
     o += 9
     wk = swf[o : o + 90].reshape((10, 3, 3))
     o += 90
-    vecs = _mat(swf, o, 6, 3)
+    vecs = swf[o : o + 18].reshape((6, 3))
     o += 18
     F0 = swf[o : o + 3]
     tau0 = swf[o + 3 : o + 6]
@@ -1958,7 +1997,7 @@ def _step(
         prev_force,
         mu_vec,
         info,
-        True,
+        np.bool_(True),  # ``diag``, not a literal: one compilation of _forces for both calls
         fws,
         fst,
         F0,
@@ -2028,7 +2067,7 @@ def _step(
             prev_force,
             mu_vec,
             info,
-            False,
+            np.bool_(False),
             fws,
             fst,
             F1,
@@ -2118,7 +2157,10 @@ def _step(
     full = R1[2, 2] < prm[P_COS_CAND] or cand.size == nodes.shape[0]
     gmin, ncont = _end_gaps(x1, R1, d1, nodes, cand, full, ped_kind, hx, hy, prm[P_EPS], out_gaps)
     if not full and gmin < -2.0 * prm[P_EPS]:
-        gmin, ncont = _end_gaps(x1, R1, d1, nodes, cand, True, ped_kind, hx, hy, prm[P_EPS], out_gaps)
+        # (np.bool_: a literal True would compile a second _end_gaps specialised on it)
+        gmin, ncont = _end_gaps(
+            x1, R1, d1, nodes, cand, np.bool_(True), ped_kind, hx, hy, prm[P_EPS], out_gaps
+        )
     info[I_GMIN] = gmin
     info[I_NCONT] = ncont
     if gmin < -prm[P_EPS] and prm[P_NO_PEN] == 0:
@@ -2177,7 +2219,7 @@ def excitation_load(exc, data, t, out):
     ``data`` the records' samples and differences. The same numbers as the engine's
     ``gvec − Excitation3D.acceleration(t)``."""
     g, d0, d1 = exc[0], exc[1], exc[2]
-    ah = _component_acc(exc, 3, data, t)
+    ah = _component_acc(exc, np.int64(3), data, t)  # not a literal 3: one compilation
     az = _component_acc(exc, 3 + EXC_COMP, data, t)
     out[0] = 0.0 - ah * d0
     out[1] = 0.0 - ah * d1
@@ -2556,7 +2598,8 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
     for p in range(n3):
         for c in range(3):
             H[p, c] = iw[c, 0] * gm[p, 3] + iw[c, 1] * gm[p, 4] + iw[c, 2] * gm[p, 5]
-    A = np.empty((n3, n3))
+    Abuf = np.empty(n3 * n3)
+    A = Abuf.reshape((n3, n3))
     inv_m = 1.0 / mass
     for p in range(n3):
         for q_ in range(n3):
@@ -2571,8 +2614,17 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
             guess[i] = 1
     j = np.zeros(n3)
     if mu_s > 0:
+        # A (and the friction directions) in the layout of :func:`_forces`' workspace views
+        # ('A', :func:`_mat`, same values): one compilation of active_set_solve for both
         ok, j, _, _ = active_set_solve(
-            A, q, guess, np.full(k, mu_s), 0.0, k + 2, np.zeros((k, 2)), np.zeros(k, dtype=np.bool_)
+            _mat(Abuf, 0, n3, n3),
+            q,
+            guess,
+            np.full(k, mu_s),
+            0.0,
+            k + 2,
+            _mat(np.zeros(2 * k), 0, k, 2),
+            np.zeros(k, dtype=np.bool_),
         )
         if not ok:
             return IMPACT_CONE, A, q, j

@@ -12,6 +12,7 @@ velocities only (checked against NumPy).
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
@@ -75,6 +76,25 @@ def test_active_set_solve_into_equals_active_set_solve(k: int) -> None:
             fast += int(np.shares_memory(f1, ws))
             status = st0.copy()
     assert 60 <= fast <= 540
+
+
+@pytest.mark.parametrize("k", [1, 2, 4])
+def test_layout_a_copy_is_typed_a_and_solves_the_same(k: int) -> None:
+    """``kernel.layout_a`` (the Python path's A and tdir, so that its calls use the compiled
+    callers' compilation of the solve): numba types the copy with layout 'A' (a C-contiguous
+    copy would compile the solve's call tree again), same shape and bytes, and the solve
+    answers the same (ok, f, a, status) bit for bit from either layout."""
+    for seed in range(40):
+        A, b, status, tdir, cons, slide = _problem(7000 * k + seed, k)
+        mu = np.full(k, 0.6)
+        A_, tdir_ = kernel.layout_a(A), kernel.layout_a(tdir)
+        for x, y in ((A, A_), (tdir, tdir_)):
+            assert numba.typeof(y).layout == "A" and not y.flags.c_contiguous
+            assert _same(x, y)
+        ok0, f0, a0, st0 = kernel.active_set_solve(A, b, status.copy(), mu, cons, k + 2, tdir, slide)
+        ok1, f1, a1, st1 = kernel.active_set_solve(A_, b, status.copy(), mu, cons, k + 2, tdir_, slide)
+        assert ok0 == ok1
+        assert _same(f0, f1) and _same(a0, a1) and np.array_equal(st0, st1)
 
 
 def test_kinematics_into_against_numpy_on_the_candidates_only() -> None:
