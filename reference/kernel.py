@@ -670,12 +670,18 @@ def _check_into(A, b, f, status, mu, cons_tol, tdir, a):
             return False
         if st == 1 and math.hypot(f[3 * i + 1], f[3 * i + 2]) > mu[i] * fn * (1 + 1e-12) + fscale:
             return False
-        if st == 3:
-            s0, s1 = tdir[i, 0], tdir[i, 1]
-            ax, ay = a[3 * i + 1], a[3 * i + 2]
-            if abs(s0 * ay - s1 * ax) > tol + cons_tol or s0 * ax + s1 * ay > tol + cons_tol:
-                return False
+        if st == 3 and not _opposes(tdir[i, 0], tdir[i, 1], a[3 * i + 1], a[3 * i + 2], tol + cons_tol):
+            return False
     return True
+
+
+@njit(cache=True)
+def _opposes(s0, s1, ax, ay, tol):
+    """Whether the tangential acceleration (ax, ay) (m/s²) opposes the unit friction direction
+    (s0, s1) of an impending slip: across it within ``tol`` and not along it by more than ``tol``
+    (eqs. 3.6–3.7; :func:`_check_into` with the solve's direction, :func:`_slip_opposes` with the
+    answer's)."""
+    return not (abs(s0 * ay - s1 * ax) > tol or s0 * ax + s1 * ay > tol)  # (NaN passes, as before)
 
 
 @njit(cache=True)
@@ -1096,11 +1102,7 @@ def _slip_opposes(b, f, a, st, cons_tol):
             ft = math.hypot(f[3 * i + 1], f[3 * i + 2])
             if ft <= 0.0:
                 return False
-            s0 = f[3 * i + 1] / ft
-            s1 = f[3 * i + 2] / ft
-            ax = a[3 * i + 1]
-            ay = a[3 * i + 2]
-            if abs(s0 * ay - s1 * ax) > tol or s0 * ax + s1 * ay > tol:
+            if not _opposes(f[3 * i + 1] / ft, f[3 * i + 2] / ft, a[3 * i + 1], a[3 * i + 2], tol):
                 return False
     return True
 
