@@ -1,4 +1,4 @@
-"""Re-measure the one-off figures of docs/toppling.md and docs/scenarios.md (not run in CI).
+"""Re-measure the one-off figures of docs/toppling.md, docs/scenarios.md and docs/validation.md (not run in CI).
 
 ``one-cosine``: the band edges of the Housner block under a one-cosine pulse at 2 Hz (docs/toppling.md,
 "The example that shows the difference"): per engine, the first-crossing edge (criterion
@@ -9,10 +9,18 @@ searched in 40–70 m/s²), ``find_threshold`` with rel_tol 1e-3.
 of σ = 1 and 3 mm (5 draws each, seed 0; docs/scenarios.md, "critical tilt α(φ)"): the rock model is
 rebuilt (mass 353.8 kg, pose settle) and α_min refined (``StabilityTable.minimum``).
 
+``support-scale``: a variant of a validation scenario whose rock's base outline is ``k`` × the scan's
+about the COM's vertical (vertices at the base scaled horizontally by ``k``, tapering linearly to the
+scan at ``--taper`` m above it), written as an OBJ and a scenario beside it (docs/validation.md, "Why
+is the model rock too stable?", support geometry): the pivots move toward the COM by (1 − k) of their
+lever arm, so tan α shrinks by about ``k``. Prints α toward ±d at the scenario's azimuth before and
+after; score the variant with ``pbr-xval validate … --scenario OUT/NAME.toml``.
+
 Usage::
 
     nice -n 10 python tools/doc_one_offs.py one-cosine [--engine housner --engine dart --engine mujoco]
     nice -n 10 python tools/doc_one_offs.py alpha-noise [--scan ../shared/data/scans/SP1_mesh.obj]
+    python tools/doc_one_offs.py support-scale examples/validation/sp2.toml 0.9 --out runs/support
 
 Each line printed is one measurement; the machine and its load (``os.getloadavg``) come first.
 """
@@ -80,6 +88,47 @@ def alpha_noise(scan: Path, sigmas: tuple[float, ...] = (0.001, 0.003), draws: i
                 )
 
 
+def support_scale(scenario: Path, k: float, taper: float, out: Path) -> Path:
+    """Write ``out/<name>_k<k>.obj`` and ``.toml``: ``scenario`` with its base outline scaled by ``k``."""
+    import tomllib
+
+    import trimesh
+
+    from pbr_xval.atomic import write_text_atomic
+    from pbr_xval.scenario import load_scenario
+    from pbr_xval.scene import compile_scene
+
+    if not 0.0 < k <= 1.5 or taper <= 0.0:
+        raise SystemExit(f"support-scale: k must be in (0, 1.5] and --taper > 0 m, got k={k}, taper={taper}")
+    scene = compile_scene(load_scenario(scenario))
+    mesh, com = scene.rock.mesh, np.asarray(scene.rock.com, dtype=float)
+    v = np.array(mesh.vertices, dtype=float)
+    f = k + (1.0 - k) * np.clip((v[:, 2] - v[:, 2].min()) / taper, 0.0, 1.0)
+    v[:, :2] = com[:2] + (v[:, :2] - com[:2]) * f[:, None]
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"{scenario.stem}_k{k:g}"
+    obj = out / f"{stem}.obj"
+    write_text_atomic(obj, trimesh.Trimesh(v, mesh.faces, process=False).export(file_type="obj"))
+    # the variant's mesh is written in the compiled scene's (settled) frame; pose "settle" keeps it
+    text = scenario.read_text()
+    old = tomllib.loads(text)["rock"]["path"]
+    lines = [
+        f'path = "{obj.resolve()}"' if ln.strip().startswith("path =") and old in ln else ln
+        for ln in text.splitlines()
+    ]
+    toml = out / f"{stem}.toml"
+    write_text_atomic(toml, "\n".join(lines) + "\n")
+    after = compile_scene(load_scenario(toml))
+    (b_m, b_p), (a_m, a_p) = scene.alpha, after.alpha
+    print(
+        f"{scenario.name} k {k:g} (taper {taper:g} m): α toward −d {math.degrees(b_m):.2f}° → {math.degrees(a_m):.2f}°, "
+        f"toward +d {math.degrees(b_p):.2f}° → {math.degrees(a_p):.2f}° (tan ratio {math.tan(a_p) / math.tan(b_p):.3f}); "
+        f"wrote {toml}",
+        flush=True,
+    )
+    return toml
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="what", required=True)
@@ -87,12 +136,19 @@ def main() -> None:
     oc.add_argument("--engine", action="append", default=None)
     an = sub.add_parser("alpha-noise")
     an.add_argument("--scan", type=Path, default=ROOT.parent / "shared" / "data" / "scans" / "SP1_mesh.obj")
+    ss = sub.add_parser("support-scale")
+    ss.add_argument("scenario", type=Path)
+    ss.add_argument("k", type=float)
+    ss.add_argument("--taper", type=float, default=0.02, help="height (m) over which the scaling fades out")
+    ss.add_argument("--out", type=Path, default=Path("runs/support"))
     args = ap.parse_args()
     print(f"# {platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, load {os.getloadavg()}")
     if args.what == "one-cosine":
         one_cosine(args.engine or ["housner", "dart", "mujoco"])
-    else:
+    elif args.what == "alpha-noise":
         alpha_noise(args.scan)
+    else:
+        support_scale(args.scenario, args.k, args.taper, args.out)
 
 
 if __name__ == "__main__":
