@@ -29,7 +29,8 @@ prints, per folder:
 * ``bands``: where the Brier score comes from — per band of the sheet's PGV/PGA (the lab's edges 0.06, 0.08,
   0.10, 0.15 s) and per test day: tests, topples observed, the summed P of the ensemble and of the best
   out-of-fold logistic (expected topples), and each one's share of the specimen's Brier; then the Brier of both
-  with the worst day left out.
+  with the worst day left out. A deterministic ``validate`` folder (no ``ensemble_members.csv``) gets each
+  engine's predicted topples (``pred_<engine>``) per band and per day instead.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -297,7 +298,14 @@ def bands(*folders: str) -> None:
     """Expected against observed topples and the Brier's share per sheet PGV/PGA band and per test day."""
     ex = pd.read_csv(CAMPAIGN / "experiments.csv", dtype={"test": str})[["test", "date"]]
     for folder in folders:
+        if not Path(folder, "outcomes.csv").is_file():
+            raise SystemExit(
+                f"bands: {folder}: no outcomes.csv (expected a `pbr-xval validate` output folder)"
+            )
         oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str}).merge(ex, on="test")
+        if not Path(folder, "ensemble_members.csv").is_file():
+            _bands_deterministic(folder, oc)
+            continue
         oc["p_ensemble"] = _p_ensemble(folder, oc.test.tolist())
         o = oc.observed.to_numpy(float)
         logit = [c for c in oc if c.startswith("p_logistic")]
@@ -327,6 +335,25 @@ def bands(*folders: str) -> None:
             f"ensemble expected {oc.p_ensemble[~rest].sum():.1f}): ensemble {oc.se_ens[rest].mean():.4f}, "
             f"{best} {oc.se_log[rest].mean():.4f} ({100 * (oc.se_ens[rest].mean() / oc.se_log[rest].mean() - 1):+.0f} %)"
         )
+
+
+def _bands_deterministic(folder: str, oc: pd.DataFrame) -> None:
+    """:func:`bands` for a deterministic ``validate`` folder: each engine's yes/no (``pred_<engine>``)
+    counted against the observed topples per sheet PGV/PGA band and per test day."""
+    engines = [c for c in oc if c.startswith("pred_") and not c.endswith("rule")]
+    if not engines:
+        raise SystemExit(
+            f"bands: {folder}: found neither ensemble_members.csv nor a pred_<engine> column in outcomes.csv"
+        )
+    oc = oc.assign(band=pd.cut(oc.sheet_pgv_over_pga_s, [0, 0.06, 0.08, 0.10, 0.15, np.inf]))
+    print(
+        f"{folder}: {len(oc)} tests, {int(oc.observed.sum())} toppled (deterministic: predicted topples per engine)"
+    )
+    for key in ("band", "date"):
+        g = oc.groupby(key, observed=True).agg(
+            tests=("test", "size"), toppled=("observed", "sum"), **{c[5:]: (c, "sum") for c in engines}
+        )
+        print(g.to_string())
 
 
 def rehearse(specimen: str, lab: str, field: str) -> None:
