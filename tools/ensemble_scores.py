@@ -31,6 +31,11 @@ prints, per folder:
   out-of-fold logistic (expected topples), and each one's share of the specimen's Brier; then the Brier of both
   with the worst day left out. A deterministic ``validate`` folder (no ``ensemble_members.csv``) gets each
   engine's predicted topples (``pred_<engine>``) per band and per day instead.
+* ``recalibrate``: how far an ensemble's P is from the table's outcomes as a map — a Platt map
+  (logistic regression on logit P, scikit-learn, P clipped to [0.001, 0.999]) fitted out of fold by record on
+  the folder's own tests, and one fitted on every test of the *other* folder (the other specimen) and applied
+  to this one; printed with the ensemble's, the best out-of-fold logistic's and the transferred law's Brier.
+  For field mode the transferred map is what the other specimen's table says about the unknown direction.
 * ``cost``: member runs per test and the summed per-run ``wall_s`` of the store's member runs over its
   deterministic runs, per engine, on the folder's tests.
 
@@ -46,6 +51,7 @@ Usage::
     python tools/ensemble_scores.py repeats
     python tools/ensemble_scores.py bands /tmp/ens/sp1 /tmp/ens/sp2
     python tools/ensemble_scores.py rehearse 1 /tmp/ens/sp1_lab /tmp/ens/sp1_field
+    python tools/ensemble_scores.py recalibrate /tmp/ens/sp1_field /tmp/ens/sp2_field
 
 The campaign is ../shared/data/shake_table and the scenarios examples/validation/sp{1,2}.toml (the geometry
 of the transferred law), relative to the repository root.
@@ -356,6 +362,37 @@ def _bands_deterministic(folder: str, oc: pd.DataFrame) -> None:
         print(g.to_string())
 
 
+def _logit_p(folder: str) -> tuple[pd.DataFrame, np.ndarray]:
+    oc = pd.read_csv(f"{folder}/outcomes.csv", dtype={"test": str})
+    p = np.clip(_p_ensemble(folder, oc.test.tolist()), 1e-3, 1 - 1e-3)
+    return oc, np.log(p / (1 - p))
+
+
+def recalibrate(folder_a: str, folder_b: str) -> None:
+    """Platt maps of each folder's ensemble P: out of fold by record, and fitted on the other folder."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.metrics import brier_score_loss
+
+    data = {f: _logit_p(f) for f in (folder_a, folder_b)}
+    for this, other in ((folder_a, folder_b), (folder_b, folder_a)):
+        oc, x = data[this]
+        o = oc.observed.to_numpy(int)
+        q = np.zeros(len(o))
+        for k in np.unique(oc.fold):
+            tr = oc.fold.to_numpy() != k
+            q[~tr] = LogisticRegression(C=1e6).fit(x[tr, None], o[tr]).predict_proba(x[~tr, None])[:, 1]
+        ox, xo = data[other]
+        m = LogisticRegression(C=1e6).fit(xo[:, None], ox.observed.to_numpy(int))
+        t = m.predict_proba(x[:, None])[:, 1]
+        best = min(brier_score_loss(o, oc[c]) for c in oc if c.startswith("p_logistic"))
+        print(
+            f"{this}: ensemble Brier {brier_score_loss(o, 1 / (1 + np.exp(-x))):.4f}; Platt out of fold by record "
+            f"{brier_score_loss(o, q):.4f}; Platt fitted on {other} {brier_score_loss(o, t):.4f} "
+            f"(logit P' = {m.intercept_[0]:.2f} + {m.coef_[0, 0]:.2f} logit P); best logistic {best:.4f}, "
+            f"transferred {brier_score_loss(o, oc.p_transferred):.4f}"
+        )
+
+
 def rehearse(specimen: str, lab: str, field: str) -> None:
     """The held-out judgement rehearsed on the two record halves of the calibration campaign."""
     import tempfile
@@ -414,6 +451,7 @@ COMMANDS = {
     "repeats": repeats,
     "rehearse": rehearse,
     "bands": bands,
+    "recalibrate": recalibrate,
 }
 
 if __name__ == "__main__":
