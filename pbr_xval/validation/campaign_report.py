@@ -236,7 +236,7 @@ def _calibration_note(res: ValidationResult) -> str:
 
 
 def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict[str, Path]:
-    """Write ``outcomes.csv``, ``scores.csv``, ``validation.json`` and ``index.html`` (atomically)."""
+    """Write ``outcomes.csv``, ``scores.csv``, ``bands.csv``, ``validation.json`` and ``index.html`` (atomically)."""
     out.mkdir(parents=True, exist_ok=True)
     paths = {
         "outcomes": write_text_atomic(out / "outcomes.csv", res.outcomes.to_csv(index=False)),
@@ -255,6 +255,8 @@ def write_report(res: ValidationResult, out: Path, meta: dict[str, Any]) -> dict
     paths["json"] = write_text_atomic(out / "validation.json", json.dumps(doc, indent=2, default=str))
     img = _png(_plane_figure(res))
     prob = _probabilistic_section(res, out)  # issue 22: Brier, log loss, AUC; reliability; P on the plane
+    bands = band_table(res)
+    paths["bands"] = write_text_atomic(out / "bands.csv", bands.to_csv(index=False))
     sc = res.scores.copy()
     for c in ("accuracy", "precision", "recall", "f1", *PROB_COLUMNS):
         sc[c] = sc[c].map(lambda v: "—" if v != v else f"{v:.3f}")
@@ -290,6 +292,7 @@ Empirical rules ("toppled if every feature ≥ its threshold", intensity measure
 <th>FP (observed stood, predicted toppled)</th><th>TN</th></tr>{cm_rows}</table>
 <p>Rules fitted on all tests (for reference, not scored): </p><ul>{rules}</ul>
 {prob}
+{_bands_section(bands)}
 <h2>Outcomes on the PGA × PGV/PGA plane</h2>
 <p>x: {html.escape(label("pga"))} of the corrected table record; y: {html.escape(label("pgv_over_pga"))}.
 Green: predicted as observed; red: predicted wrongly; circles: observed toppled; squares: observed standing.</p>
@@ -303,6 +306,87 @@ Green: predicted as observed; red: predicted wrongly; circles: observed toppled;
 
 
 __all__ += ["Scores", "f1_lines"]
+
+
+# ------------------------------------------------------------------ errors by band of PGV/PGA (issue 22)
+#: bands of PGV/PGA in :func:`band_table`: equal counts of tests (quantiles)
+N_BANDS = 4
+
+
+def band_table(res: ValidationResult, n_bands: int = N_BANDS) -> pd.DataFrame:
+    """Observed topples against each model's per band of PGV/PGA — where a model's errors sit.
+
+    A level error (a rock too stable everywhere: its critical angle, its support) moves every band
+    alike; an error whose sign changes from band to band (too fragile to short-period shaking, too
+    stable to longer periods) is a frequency dependence that no level fixes (docs/validation.md,
+    "Why is the model rock too stable?"). PGV/PGA (s) is that of the rules' intensity measures
+    (``res.baseline_source``: the lab sheet or the corrected records); the band edges are its
+    quantiles over the tests (``n_bands`` bands of about equal counts; fewer where values tie).
+
+    Returns
+    -------
+    DataFrame, one row per band: ``pgv_over_pga_lo_s``, ``pgv_over_pga_hi_s`` (s; the first band
+    includes its lower edge), ``tests``, ``observed`` (topples), then per model its topples in the
+    band: a deterministic engine's or rule's predicted count (``pred_<model>`` summed over its
+    scored tests; failed runs count as no prediction) and a probabilistic model's expected count
+    (``p_<model>`` summed: the ensemble, the logistic laws, the transferred law).
+    """
+    oc = res.outcomes
+    f = _features(oc, res.baseline_source)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = f["pgv"] / f["pga"]
+    ok = np.isfinite(ratio)
+    columns = ["pgv_over_pga_lo_s", "pgv_over_pga_hi_s", "tests", "observed"]
+    models = [c for c in oc.columns if c.startswith(("pred_", "p_"))]
+    if not ok.any():
+        return pd.DataFrame(columns=columns + [c.split("_", 1)[1] for c in models])
+    edges = np.unique(np.quantile(ratio[ok], np.linspace(0.0, 1.0, n_bands + 1)))
+    if edges.size == 1:
+        edges = np.array([edges[0], edges[0]])
+    band = np.clip(np.searchsorted(edges, ratio, side="left") - 1, 0, edges.size - 2)
+    obs = oc["observed"].to_numpy(float)
+    rows = []
+    for b in range(edges.size - 1):
+        m = ok & (band == b)
+        row: dict[str, Any] = {
+            "pgv_over_pga_lo_s": float(edges[b]),
+            "pgv_over_pga_hi_s": float(edges[b + 1]),
+            "tests": int(m.sum()),
+            "observed": int(obs[m].sum()),
+        }
+        for c in models:
+            row[c.split("_", 1)[1]] = float(
+                np.nansum(pd.to_numeric(oc[c], errors="coerce").to_numpy(float)[m])
+            )
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _bands_section(bands: pd.DataFrame) -> str:
+    if bands.empty:
+        return ""
+    shown = bands.copy()
+    for c in shown.columns[4:]:
+        shown[c] = shown[c].map(lambda v: f"{v:.1f}")
+    shown.insert(
+        0,
+        "PGV/PGA band [s]",
+        [f"{lo:.3f}–{hi:.3f}" for lo, hi in zip(bands.iloc[:, 0], bands.iloc[:, 1], strict=True)],
+    )
+    shown = shown.drop(columns=["pgv_over_pga_lo_s", "pgv_over_pga_hi_s"]).rename(
+        columns={"tests": "tests [–]", "observed": "observed topples [–]"}
+    )
+    return (
+        "<h2>Errors by band of PGV/PGA</h2><p>Observed topples against each model's predicted (0/1 models) or "
+        "expected (probabilistic models: the sum of P) topples per band of PGV/PGA (the rules' intensity "
+        "measures; bands of about equal test counts; data in bands.csv). A model too stable or too fragile "
+        "everywhere errs the same way in every band; an error that changes sign from band to band is a "
+        "frequency dependence that no change of level (critical angle, support) removes.</p>"
+        f"{shown.to_html(index=False, escape=True)}"
+    )
+
+
+__all__ += ["N_BANDS", "band_table"]
 
 
 # ------------------------------------------------------------------ probabilistic scores (issue 22)

@@ -125,3 +125,18 @@ def test_support_geometry_observed_counts_match_the_lab_sheet() -> None:
     assert f"22–32 of the {int(o2[short].sum())} below 0.06 s" in text
     rest = mid & (ex.date != 20210819)
     assert f"(MuJoCo 12 of {int(o2[rest].sum())})" in text
+
+
+def test_band_edges_and_observed_counts_in_the_command_section_match_the_lab_sheet() -> None:
+    """ "Errors by band of PGV/PGA" quotes SP2's quartile edges and observed topples: recounted from the
+    lab sheet with numpy's quantiles (MuJoCo's predicted counts there are one-off)."""
+    import numpy as np
+
+    doc = " ".join((REPO / "docs" / "validation.md").read_text().split())
+    start = doc.index("* **Errors by band of PGV/PGA**")
+    text = doc[start : doc.index("* **", start + 1)]
+    ex = pd.read_csv(SHAKE_TABLE / "experiments.csv")
+    r, o = ex.pgv_over_pga_s.to_numpy(), ex.toppled_specimen2.to_numpy()
+    q50, q75 = np.quantile(r, [0.5, 0.75])
+    assert f"where {int(o[r <= q50].sum())} were observed below {q50:.3f} s" in text
+    assert f"where {int(o[(r > q50) & (r <= q75)].sum())} were observed at {q50:.3f}–{q75:.3f} s" in text

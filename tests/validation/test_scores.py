@@ -310,6 +310,10 @@ def test_evaluate_scores_every_model_probabilistically(box_campaign_files, tmp_p
     page = paths["html"].read_text()
     assert "Probabilistic scores" in page and "reliability diagram" in page
     assert (tmp_path / "report" / "reliability.csv").is_file()
+    bands = pd.read_csv(paths["bands"])  # errors by band of PGV/PGA: every test in one band, every model
+    assert bands.tests.sum() == len(tests) and bands.observed.sum() == sum(observed)
+    assert bands.fake.sum() == sum(wrong_first) and "logistic(lnPGV)" in bands.columns
+    assert "Errors by band of PGV/PGA" in page
 
 
 #: transferred baseline (fitted on the other specimen, geometry-normalised sheet PGA and PGV,
@@ -404,3 +408,33 @@ def test_min_tilt_search_matches_a_brute_force_grid() -> None:
         assert best == pytest.approx(tilt(phi), abs=1e-12)
         on_grid = alpha[:: int(step)] if step >= 1 else alpha  # the search's own grid, or a coarser one
         assert best <= on_grid.min() + 1e-12 and best > on_grid.min() - math.radians(1.0)
+
+
+def test_band_table_counts_topples_per_band_of_pgv_over_pga() -> None:
+    """Errors by band (issue 22): eight tests in two PGV/PGA bands, counted by hand."""
+    from pbr_xval.validation.campaign_report import ValidationResult, band_table
+
+    ratio = [0.02, 0.03, 0.04, 0.05, 0.08, 0.09, 0.10, 0.12]  # s; quantile edges 0.02 / 0.065 / 0.12
+    oc = pd.DataFrame(
+        {
+            "test": [str(i) for i in range(8)],
+            "observed": [0, 0, 1, 1, 1, 1, 1, 0],
+            "sheet_pga_m_s2": 2.0,
+            "sheet_pgv_over_pga_s": ratio,
+            "pred_fake": [1, 1, 1, 0, 0, 0, 1, np.nan],  # too fragile at short periods, too stable at long
+            "p_ensemble": [0.5, 0.5, 0.5, 0.5, 0.25, 0.25, 0.25, 0.25],
+        }
+    )
+    res = ValidationResult(
+        outcomes=oc, scores=pd.DataFrame(), engines=["fake"], baseline_source="sheet", folds=2
+    )
+    b = band_table(res, n_bands=2)
+    assert b.pgv_over_pga_lo_s.tolist() == pytest.approx([0.02, 0.065])
+    assert b.pgv_over_pga_hi_s.tolist() == pytest.approx([0.065, 0.12])
+    assert b.tests.tolist() == [4, 4] and b.observed.tolist() == [2, 3]
+    assert b.fake.tolist() == [3.0, 1.0]  # the failed run (NaN) counts as no prediction
+    assert b.ensemble.tolist() == pytest.approx([2.0, 1.0])
+    # a test exactly on an inner edge belongs to the lower band; the first band includes its lower edge
+    oc2 = oc.assign(sheet_pgv_over_pga_s=[0.02, 0.02, 0.02, 0.05, 0.05, 0.09, 0.10, 0.12])
+    b2 = band_table(ValidationResult(oc2, pd.DataFrame(), ["fake"], "sheet", 2), n_bands=2)
+    assert b2.tests.tolist() == [5, 3]
