@@ -10,7 +10,14 @@ compiled for more than one signature are listed with their signatures' differenc
 layout of an array argument or a literal constant argument compiles the callee's whole call
 tree again; ``reference/PERFORMANCE.md``, "Cold JIT compile").
 
-Run:  python benchmarks/reference_compile.py [--top N]     (~75 s on the project's 2-core machine)
+With ``--modules`` it also prints, per compiled module (numba's code library of one
+function and signature), the CPU seconds of LLVM's whole-module optimisation and of its code
+generation and the module's instruction count: numba links the modules of a function's compiled
+callees into the function's own and optimises and generates code for the whole again, so a
+call tree's code is counted in every module above it (numba internals of 0.68; the counting
+slows the run).
+
+Run:  python benchmarks/reference_compile.py [--top N] [--modules]   (~75 s on the project's 2-core machine)
 """
 
 from __future__ import annotations
@@ -28,6 +35,30 @@ from numba.core import event
 from numba.core.registry import CPUDispatcher
 
 top = int(sys.argv[1])
+modules = sys.argv[2] == "1"
+llvm_rows = []
+if modules:
+    # numba internals (numba 0.68): time the whole-module optimisation and the code generation
+    # of each compiled library, and count its instructions first (outside the timed calls, but
+    # inside the check_rest figure, which this counting inflates)
+    from numba.core import codegen
+
+    lib_cls = codegen.CPUCodeLibrary
+
+    def _count(mod):
+        return sum(len(list(b.instructions)) for f in mod.functions if not f.is_declaration for b in f.blocks)
+
+    def _timed(kind, orig):
+        def run(self, *a):
+            n = _count(self._final_module) if kind == "opt" else 0
+            t = time.process_time()
+            orig(self, *a)
+            llvm_rows.append((kind, self.name, time.process_time() - t, n))
+
+        return run
+
+    lib_cls._optimize_final_module = _timed("opt", lib_cls._optimize_final_module)
+    lib_cls._finalize_final_module = _timed("codegen", lib_cls._finalize_final_module)
 with event.install_recorder("numba:compile") as rec, event.install_recorder("numba:llvm_lock") as llv:
     w0, c0 = time.perf_counter(), time.process_time()
     from pbr_xval.conformance import check_rest
@@ -57,6 +88,20 @@ for t, disp, _ in rows:
 print(f"slowest {top} (s, nested; one figure per signature):")
 for name in sorted(names, key=lambda n: -max(names[n]))[:top]:
     print(f"  {name:<32s} " + " + ".join(f"{t:.1f}" for t in sorted(names[name], reverse=True)))
+if modules:
+    per = defaultdict(lambda: [0.0, 0.0, 0])
+    for kind, lib, t, n in llvm_rows:
+        per[lib][0 if kind == "opt" else 1] += t
+        per[lib][2] = max(per[lib][2], n)
+    t_opt = sum(v[0] for v in per.values())
+    t_gen = sum(v[1] for v in per.values())
+    n_mod = sum(1 for row in llvm_rows if row[0] == "opt")
+    print(f"{n_mod} compiled modules; whole-module optimisation {t_opt:.1f} CPU s, code generation "
+          f"{t_gen:.1f} CPU s; the slowest {top} names (a name's signatures summed; instructions: its "
+          f"largest module, which holds its compiled callees' code):")
+    print(f"  {'function':<40s} {'opt s':>6s} {'codegen s':>9s} {'instructions':>12s}")
+    for lib, (o, g, n) in sorted(per.items(), key=lambda kv: -(kv[1][0] + kv[1][1]))[:top]:
+        print(f"  {lib[:40]:<40s} {o:6.2f} {g:9.2f} {n:12d}")
 from pbr_xval.reference import cone, kernel, pivoting
 
 print("reference functions compiled for more than one signature (argument: differences from the first):")
@@ -72,11 +117,19 @@ for mod in (kernel, cone, pivoting):
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--top", type=int, default=12, help="how many of the slowest compilations to list")
+    ap.add_argument(
+        "--modules",
+        action="store_true",
+        help="also time the LLVM optimisation and code generation of each compiled module "
+        "(numba internals; counting their instructions slows the run)",
+    )
     args = ap.parse_args()
     print(f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()})")
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
-        subprocess.run([sys.executable, "-c", _CHILD, str(args.top)], env=env, check=True)
+        subprocess.run(
+            [sys.executable, "-c", _CHILD, str(args.top), "1" if args.modules else "0"], env=env, check=True
+        )
     print(f"(load average at end {os.getloadavg()})")
 
 

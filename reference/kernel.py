@@ -40,6 +40,21 @@ Structure used
     hull vertices with the same wrench and the same cone conditions, and the hull
     vertices' a_n ≥ 0 implies it at every interior node.  Everything outside the LCP is
     O(N) in the number of basal nodes N.
+
+Compile time
+    numba compiles every function to its own LLVM module, links the modules of all its
+    compiled callees into it and optimises and generates code for the whole linked module
+    again: each separately compiled function pays once more for its whole call tree. So the
+    functions between the entry points called from Python (:func:`step_block`,
+    :func:`_step`, :func:`impact_impulses`, :func:`active_set_solve`) are inlined by numba
+    (``inline="always"``: their code spliced into the caller's before typing, no module of
+    their own): :func:`_block_impact`, :func:`_forces`, :func:`active_set_retry`,
+    :func:`_active_set_solve_into`, :func:`_active_set_rounds` (one call site in
+    :func:`active_set_solve` for that), :func:`_slip_directions`,
+    :func:`_free_unloaded_slip`, :func:`lcp_select`, :func:`_minnorm_solve` and :func:`_mat`.
+    The same operations in the same order, without fast-math: the results are bit for bit
+    those of separate compilation (``reference/PERFORMANCE.md``, "Cold JIT compile"). Called
+    from Python, an inlined function is compiled as any other.
 """
 
 from __future__ import annotations
@@ -261,7 +276,7 @@ def layout_a(x: np.ndarray) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mat(buf, o, n, m):
     """The (n, m) row-major view of ``buf[o : o + n m]`` (1-D, contiguous): the same elements
     as ``buf[o : o + n m].reshape((n, m))``, without reshape's checks (~10 ns per call, ~70
@@ -905,7 +920,7 @@ SLIP_NEWTON_ITERATIONS = 8
 SLIP_FD_STEP = 1e-7
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _slip_directions(A, b, st, mu, tdir, scale, f, rtol):
     """Newton iteration on the angles of the impending-slip directions ŝ (``tdir``, updated
     in place) until every such contact's tangential acceleration is parallel to ŝ (ŝ × a_t
@@ -1011,31 +1026,34 @@ def active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
     -------
     (ok, f (3k,), a (3k,), status (k,) of the answer).
     """
-    ok, f, a, st, first = _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir, slide)
-    if ok:
-        return ok, f, a, st
     k = status.size
-    guess = status.copy()
-    # a copy of tdir in the layout of tdir's in :func:`_forces` ('A', :func:`_mat`), so that
-    # both calls below use one compilation of :func:`_active_set_rounds`
-    td = _mat(np.empty(2 * k), 0, k, 2)
-    td[:] = tdir
-    retry = False
-    for i in range(k):
-        if status[i] == 1 and mu[i] > 0:
-            ft = math.hypot(first[3 * i + 1], first[3 * i + 2])
-            if ft > mu[i] * max(first[3 * i], 0.0) * (1 + 1e-12) and ft > 0:
-                guess[i] = 3
-                td[i, 0] = first[3 * i + 1] / ft
-                td[i, 1] = first[3 * i + 2] / ft
-                retry = True
-    if not retry:
-        return ok, f, a, st
-    ok, f, a, st, _ = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td, slide)
+    guess = status
+    td = tdir
+    # one call site of :func:`_active_set_rounds` (inlined: its code once in this function),
+    # the second pass from the retry guess
+    for attempt in range(2):
+        ok, f, a, st, first = _active_set_rounds(A, b, guess, mu, cons_tol, max_rounds, td, slide)
+        if ok or attempt == 1:
+            break
+        guess = status.copy()
+        # a copy of tdir in the layout of tdir's in :func:`_forces` ('A', :func:`_mat`)
+        td = _mat(np.empty(2 * k), 0, k, 2)
+        td[:] = tdir
+        retry = False
+        for i in range(k):
+            if status[i] == 1 and mu[i] > 0:
+                ft = math.hypot(first[3 * i + 1], first[3 * i + 2])
+                if ft > mu[i] * max(first[3 * i], 0.0) * (1 + 1e-12) and ft > 0:
+                    guess[i] = 3
+                    td[i, 0] = first[3 * i + 1] / ft
+                    td[i, 1] = first[3 * i + 2] / ft
+                    retry = True
+        if not retry:
+            break
     return ok, f, a, st
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def active_set_retry(A, b, status, mu, cons_tol, max_rounds, tdir, slide, stab):
     """The resting solve's second try, after :func:`active_set_solve` failed from ``status``
     (same arguments, plus ``stab`` (3k,), m/s², the velocity-stabilisation part of b); run
@@ -1113,7 +1131,7 @@ def _active_set_work(n3):
     return 3 * n3 + _clamped_work(n3)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, slide, ws, iws):
     """:func:`active_set_solve` with its common case in the caller's scratch (``ws``: ≥
     :func:`_active_set_work` (3k) floats, ``iws``: (≥ 6k,) int): a guess without impending
@@ -1133,7 +1151,7 @@ def _active_set_solve_into(A, b, status, mu, cons_tol, max_rounds, tdir, slide, 
     return active_set_solve(A, b, status, mu, cons_tol, max_rounds, tdir, slide)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, tdir):
     """An impending-slip contact whose normal force is zero within the verification's
     tolerance (|f_n| ≤ 1e-9 max f_n: a contact that carries nothing) is freed — status 0, no
@@ -1168,7 +1186,7 @@ def _free_unloaded_slip(A, b, f, a, st, mu, cons_tol, tdir):
         st[:] = st2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _active_set_rounds(A, b, status, mu, cons_tol, max_rounds, tdir, slide):
     """The rounds of :func:`active_set_solve` from one guess: (ok, f, a, status, the first
     answer's forces (3k,))."""
@@ -1401,7 +1419,7 @@ SELECT_SUPPORT_RTOL = 1e-9
 SELECT_RANK_RTOL = 1e-10
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _minnorm_solve(sub, rhs):
     """Minimum-norm least-squares solution x = sub⁺ rhs of a small square system (the
     orthonormal-basis construction of :func:`_clamped_solve`); ok flag."""
@@ -1433,7 +1451,7 @@ def _minnorm_solve(sub, rhs):
     return x, True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lcp_select(M, q, ref):
     """The solution of the LCP w = M z + q ≥ 0, z ≥ 0, zᵀw = 0 (M symmetric PSD, small,
     singular) closest to ``ref`` — ``selection.solve_lcp_min_norm``'s answer — when the
@@ -1672,7 +1690,7 @@ def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
     return idx, slide, sdir, stab
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _forces(
     R,
     lm,
@@ -1999,7 +2017,7 @@ def _step(
         prev_force,
         mu_vec,
         info,
-        np.bool_(True),  # ``diag``, not a literal: one compilation of _forces for both calls
+        np.bool_(True),  # ``diag``, not a literal: the type of the iteration's np.bool_(False)
         fws,
         fst,
         F0,
@@ -2707,7 +2725,7 @@ N_IMP = 15
 IMP_E, IMP_MU, IMP_REDUCE, IMP_SIZE, IMP_CLOSEST = range(5)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _block_impact(cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, pred, dt, out_sv, row):
     """:meth:`dynamics.RigidBodySolver.resolve_impacts` for inertial ground motion (the pedestal
     is the frame: no displacement or velocity), when :func:`impact_impulses` answers on its
