@@ -332,12 +332,11 @@ def band_table(res: ValidationResult, n_bands: int = N_BANDS) -> pd.DataFrame:
     (``p_<model>`` summed: the ensemble, the logistic laws, the transferred law).
     """
     oc = res.outcomes
-    f = _features(oc, res.baseline_source)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = f["pgv"] / f["pga"]
-    ok = np.isfinite(ratio)
+    col = "sheet_pgv_over_pga_s" if res.baseline_source == "sheet" else "pgv_over_pga_s"
     columns = ["pgv_over_pga_lo_s", "pgv_over_pga_hi_s", "tests", "observed"]
     models = [c for c in oc.columns if c.startswith(("pred_", "p_"))]
+    ratio = pd.to_numeric(oc[col], errors="coerce").to_numpy(float) if col in oc else np.full(len(oc), np.nan)
+    ok = np.isfinite(ratio)
     if not ok.any():
         return pd.DataFrame(columns=columns + [c.split("_", 1)[1] for c in models])
     edges = np.unique(np.quantile(ratio[ok], np.linspace(0.0, 1.0, n_bands + 1)))
