@@ -71,6 +71,8 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 CAMPAIGN = ROOT.parent / "shared" / "data" / "shake_table"
+#: the lab's PGV/PGA band edges (s) of ``bands``: the sheet's PGV/PGA cut at 0.06, 0.08, 0.10, 0.15 s
+LAB_BANDS_S = [0, 0.06, 0.08, 0.10, 0.15, np.inf]
 G = 9.80665
 
 
@@ -318,7 +320,7 @@ def bands(*folders: str) -> None:
         best = min(logit, key=lambda c: float(np.mean((oc[c] - o) ** 2)))
         oc["se_ens"] = (oc.p_ensemble - o) ** 2
         oc["se_log"] = (oc[best] - o) ** 2
-        oc["band"] = pd.cut(oc.sheet_pgv_over_pga_s, [0, 0.06, 0.08, 0.10, 0.15, np.inf])
+        oc["band"] = pd.cut(oc.sheet_pgv_over_pga_s, LAB_BANDS_S)
         n = len(oc)
         print(
             f"{folder}: {n} tests, ensemble Brier {oc.se_ens.mean():.4f}, best logistic {best} {oc.se_log.mean():.4f}"
@@ -351,7 +353,7 @@ def _bands_deterministic(folder: str, oc: pd.DataFrame) -> None:
         raise SystemExit(
             f"bands: {folder}: found neither ensemble_members.csv nor a pred_<engine> column in outcomes.csv"
         )
-    oc = oc.assign(band=pd.cut(oc.sheet_pgv_over_pga_s, [0, 0.06, 0.08, 0.10, 0.15, np.inf]))
+    oc = oc.assign(band=pd.cut(oc.sheet_pgv_over_pga_s, LAB_BANDS_S))
     print(
         f"{folder}: {len(oc)} tests, {int(oc.observed.sum())} toppled (deterministic: predicted topples per engine)"
     )

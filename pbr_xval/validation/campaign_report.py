@@ -344,6 +344,7 @@ def band_table(res: ValidationResult, n_bands: int = N_BANDS) -> pd.DataFrame:
         edges = np.array([edges[0], edges[0]])
     band = np.clip(np.searchsorted(edges, ratio, side="left") - 1, 0, edges.size - 2)
     obs = oc["observed"].to_numpy(float)
+    counts = {c.split("_", 1)[1]: pd.to_numeric(oc[c], errors="coerce").to_numpy(float) for c in models}
     rows = []
     for b in range(edges.size - 1):
         m = ok & (band == b)
@@ -353,10 +354,7 @@ def band_table(res: ValidationResult, n_bands: int = N_BANDS) -> pd.DataFrame:
             "tests": int(m.sum()),
             "observed": int(obs[m].sum()),
         }
-        for c in models:
-            row[c.split("_", 1)[1]] = float(
-                np.nansum(pd.to_numeric(oc[c], errors="coerce").to_numpy(float)[m])
-            )
+        row.update({name: float(np.nansum(v[m])) for name, v in counts.items()})
         rows.append(row)
     return pd.DataFrame(rows)
 

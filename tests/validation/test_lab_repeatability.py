@@ -62,10 +62,15 @@ def test_twin_counts_on_the_page_match_the_lab_sheet() -> None:
     assert floor and float(floor.group(1)) == pytest.approx(6 * 0.25 / len(ex), abs=5e-5)
 
 
-def _bands_section() -> str:
+def _bullet(title: str) -> str:
+    """The docs/validation.md bullet that starts with ``title`` (whitespace collapsed), up to the next bullet."""
     doc = " ".join((REPO / "docs" / "validation.md").read_text().split())
-    start = doc.index("**Where SP2's shortfall sits")
+    start = doc.index(title)
     return doc[start : doc.index("* **", start + 1)]
+
+
+def _bands_section() -> str:
+    return _bullet("**Where SP2's shortfall sits")
 
 
 def test_sp2_shortfall_counts_on_the_page_match_the_lab_sheet() -> None:
@@ -107,9 +112,7 @@ def test_sp2_shortfall_counts_on_the_page_match_the_lab_sheet() -> None:
 def test_support_geometry_observed_counts_match_the_lab_sheet() -> None:
     """The observed topples per PGV/PGA band quoted beside the support-geometry runs (the predicted
     counts are one-off), recounted from the lab sheet."""
-    doc = " ".join((REPO / "docs" / "validation.md").read_text().split())
-    start = doc.index("**The support geometry (where the rock pivots)")
-    text = doc[start : doc.index("* **", start + 1)]
+    text = _bullet("**The support geometry (where the rock pivots)")
     ex = pd.read_csv(SHAKE_TABLE / "experiments.csv")
     v = ex.pgv_over_pga_s
     short, mid, long_ = v < 0.06, (v >= 0.06) & (v < 0.10), v >= 0.10
@@ -132,9 +135,7 @@ def test_band_edges_and_observed_counts_in_the_command_section_match_the_lab_she
     lab sheet with numpy's quantiles (MuJoCo's predicted counts there are one-off)."""
     import numpy as np
 
-    doc = " ".join((REPO / "docs" / "validation.md").read_text().split())
-    start = doc.index("* **Errors by band of PGV/PGA**")
-    text = doc[start : doc.index("* **", start + 1)]
+    text = _bullet("* **Errors by band of PGV/PGA**")
     ex = pd.read_csv(SHAKE_TABLE / "experiments.csv")
     r, o = ex.pgv_over_pga_s.to_numpy(), ex.toppled_specimen2.to_numpy()
     q50, q75 = np.quantile(r, [0.5, 0.75])
