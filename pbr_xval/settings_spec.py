@@ -189,6 +189,7 @@ SPECS: dict[str, dict[str, Spec]] = {
         "max_nodes": _int(3, 100_000),
         "ground_motion": GROUND,
         "rest_velocity": _nonneg("m/s"),
+        "static_hold": BOOL,
         "compiled": BOOL,
         "support_hull": BOOL,
         "side_nodes": BOOL,

@@ -64,4 +64,14 @@ This is the one place that lists them; each is also marked where it is implement
    meets the pedestal (they cannot touch a flat pedestal before the rock tips past horizontal).
 9. **Rest hold.** After the excitation has ended, a rock whose speed and velocity change per
    step are below ``rest_velocity`` is held (exact for a rigid rock on a rigid pedestal).
+10. **Quasi-static hold during the excitation** (``static_hold``, default on; inertial ground
+    motion). A rock at rest (the test of 9) whose in-band contact nodes span a polygon that
+    holds the coming loads in static equilibrium — the line of action of g − a_g through the
+    COM meets the pedestal inside the polygon, and g − a_g lies within the friction cone (μ_s),
+    each within ``adapter.HOLD_MARGIN`` = 0.1 % of its limit; Housner's static uplift test with
+    the vertical motion and friction included — stays at rest: its velocities are set to zero
+    and the state held, not stepped, up to the first step whose load at either end the polygon
+    cannot hold. Exact for the rigid model (rest is then a solution of eqs. 3.6–3.7); the
+    stepped run differs from it by the round-off velocities it carries at rest, so a run near
+    its toppling level can change outcome as under any round-off change.
 """

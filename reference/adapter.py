@@ -378,6 +378,147 @@ COMPILED_EXCITATION = True
 
 _WARM = False
 
+#: relative margin of the quasi-static hold's equilibrium test (``static_hold``): the load's
+#: lean toward every edge of the contact polygon stays below (1 − margin) × that edge's tan α,
+#: and its tangential-to-normal ratio below (1 − margin) × μ_s; nearer the limits the solver steps
+HOLD_MARGIN = 1e-3
+
+#: after a hold test that holds for no step, the next one is made this many steps later
+HOLD_RETRY_STEPS = 64
+
+
+class _StaticSupport:
+    """The rock at rest on its in-band contact nodes, and the loads it stays at rest under.
+
+    A rigid rock at rest whose contact nodes span a polygon P on the (horizontal) pedestal
+    stays at rest under the non-contact load L (the effective gravity g − a_g, m/s², (3,)) if
+    contact forces in the friction cones can balance it: forces f_i = −λ_i m L (λ_i ≥ 0,
+    Σ λ_i = 1, Σ λ_i r_i = p) with p the point where the line through the COM along L meets
+    the pedestal do, when p lies in P (no moment about the COM) and |L_t| ≤ μ_s |L_n| (each
+    f_i in its cone). Rest is then a solution of the rigid contact problem (eqs. 3.6–3.7:
+    zero relative acceleration, forces in the cones), so holding the state is exact for the
+    rigid model. Housner's static uplift test (|a| < g tan α toward every edge) is this test
+    for a horizontal load; a vertical component and the friction cone are included.
+    """
+
+    __slots__ = ("edges", "mu", "tan")
+
+    def __init__(self, edges: np.ndarray, tan: np.ndarray, mu: float) -> None:
+        self.edges = edges  # (m, 2) outward unit normals of P's edges
+        self.tan = tan  # (m,) tan α of each edge seen from the COM (m / m)
+        self.mu = mu
+
+    @classmethod
+    def at(cls, body: Any, state: Any, pedestal: Any, eps: float, mu_s: float) -> _StaticSupport | None:
+        """The support of ``state`` (nodes within the band ε, m), or None when the rock does not
+        stand on a polygon (fewer than three non-collinear in-band nodes) or its COM is not
+        above the polygon's interior."""
+        from scipy.spatial import ConvexHull, QhullError
+
+        world = state.x + body.nodes @ state.R.T
+        gaps = pedestal.gaps(world, _ZERO)
+        pts = world[gaps <= eps, :2]
+        h = float(state.x[2])
+        if pts.shape[0] < 3 or not h > 0.0:
+            return None
+        try:
+            hull = ConvexHull(pts)
+        except (QhullError, ValueError):
+            return None
+        eq = hull.equations  # a·x + b·y + c ≤ 0 inside, (a, b) unit outward
+        tan = -(eq[:, :2] @ state.x[:2] + eq[:, 2]) / h
+        if not np.all(tan > 0.0):
+            return None
+        return cls(np.ascontiguousarray(eq[:, :2]), tan, float(mu_s))
+
+    def holds(self, loads: np.ndarray) -> np.ndarray:
+        """(n,) bool: the rock stays at rest under each load of ``loads`` (n, 3) m/s²."""
+        down = -loads[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lean = (self.edges @ loads[:, :2].T) / down
+            ok = np.all(lean <= (1.0 - HOLD_MARGIN) * self.tan[:, None], axis=0)
+            ok &= np.hypot(loads[:, 0], loads[:, 1]) <= (1.0 - HOLD_MARGIN) * self.mu * down
+        return ok & (down > 0.0)
+
+
+def _step_grid(
+    t: float, n: int, *, bps: np.ndarray, dt_nom: float, duration: float
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`_step_starts` vectorised: the starts (≤ n,) s and Δt (≤ n,) s of the next steps
+    from t without step-backs, and the time after the last of them (s). The same numbers: the
+    starts between breakpoints are a sequential sum (``np.cumsum``: t + Δt, then + Δt, …, as the
+    engine adds), a step ending within 1e-12 Δt of a breakpoint ends on it."""
+    starts: list[np.ndarray] = []
+    hs: list[np.ndarray] = []
+    left = n
+    tol = 1e-12 * dt_nom
+    while left > 0 and t < duration - tol:
+        k = int(np.searchsorted(bps, t + tol, side="right"))
+        bp = float(bps[k]) if k < bps.size else duration
+        m = min(left, int((bp - t) / dt_nom) + 2)
+        c = np.cumsum(np.concatenate(([t], np.full(m, dt_nom))))
+        # the step from c[j] reaches the breakpoint when c[j] + Δt (= c[j + 1]) ≥ bp − tol
+        hit = np.flatnonzero(c[1:] >= bp - tol)
+        if hit.size and hit[0] < m:
+            j = int(hit[0])
+            starts.append(c[: j + 1])
+            h = np.full(j + 1, dt_nom)
+            h[j] = min(dt_nom, bp - float(c[j]))
+            hs.append(h)
+            left -= j + 1
+            t = bp
+        else:
+            starts.append(c[:m])
+            hs.append(np.full(m, dt_nom))
+            left -= m
+            t = float(c[m])
+    if not starts:
+        return np.zeros(0), np.zeros(0), t
+    return np.concatenate(starts), np.concatenate(hs), t
+
+
+def _hold_end(
+    t: float,
+    t_stop: float,
+    support: _StaticSupport,
+    loads: Callable[[np.ndarray], np.ndarray],
+    *,
+    bps: np.ndarray,
+    dt_nom: float,
+    duration: float,
+) -> np.ndarray:
+    """How far the rock at rest at t (s) stays at rest: the ends (k,) s of the steps from t (the
+    engine's time grid, :func:`_step_grid`) that ``support`` holds — up to the first step
+    whose load at either end (the values the stepper asks for) it cannot hold, or to the first
+    step start at or after ``t_stop``; empty when the first step is not held.
+    ``loads``: times (n,) → loads (n, 3) m/s²."""
+    n = 32
+    cur = t
+    ends: list[np.ndarray] = []
+    tol = 1e-12 * dt_nom
+    while cur < t_stop - tol:
+        full, hs, after = _step_grid(cur, n, bps=bps, dt_nom=dt_nom, duration=duration)
+        if full.size == 0:
+            break
+        inside = int(np.searchsorted(full, t_stop - tol, side="left"))
+        starts, hs = full[:inside], hs[:inside]
+        times = np.empty(2 * starts.size)
+        times[0::2] = starts + 1e-9 * hs
+        times[1::2] = (starts + hs) - 1e-9 * hs
+        ok = support.holds(np.asarray(loads(times), dtype=float).reshape(-1, 3)).reshape(-1, 2).all(axis=1)
+        k = starts.size if ok.all() else int(np.argmin(ok))
+        # a step's end is the next step's start (the engine's time arithmetic)
+        nxt = np.append(full[1:], after)
+        ends.append(nxt[:k])
+        if k < starts.size or inside < full.size or full.size < n:
+            break
+        cur = after
+        n = min(2 * n, 1 << 16)
+    return np.concatenate(ends) if ends else np.zeros(0)
+
+
+_ZERO = np.zeros(3)
+
 
 def _warm_up(stepper: Any, state: Any) -> None:
     """Call every compiled path once (a compiled step, a NumPy step with the general resting
@@ -443,6 +584,11 @@ class ReferenceEngine(EngineBase):
                 # velocity change per step are both below this (m/s) is at rest for good:
                 # the state is held (exact for a rigid rock) to the end; 0 disables
                 "rest_velocity": 1e-7,
+                # during the excitation, a rock at rest (rest_velocity) on a contact polygon that
+                # holds the coming loads in static equilibrium (the load's line of action
+                # through the polygon, within the friction cone) stays at rest: the state is
+                # held, not stepped (exact for a rigid rock; adapter._StaticSupport)
+                "static_hold": True,
                 # run the step in the compiled kernel (pbr_xval.reference.kernel); False: NumPy
                 "compiled": True,
                 # reduce each contact set to its support hull (exact, see kernel.support_hull)
@@ -572,6 +718,8 @@ class ReferenceEngine(EngineBase):
         over_budget = ""
         band_projections = 0
         band_lift_max = 0.0
+        holds = 0
+        held_s = 0.0
         wall0 = time.perf_counter()
         cpu0 = time.process_time()
         # the budget reads this thread's CPU clock (~1 µs; the process clock costs 40 µs to
@@ -615,6 +763,44 @@ class ReferenceEngine(EngineBase):
                 load.direct = functools.partial(_compiled_load, own)
             bps_arr = np.array(bps, dtype=float)
             slow_once = False
+            hold_on = bool(s["static_hold"]) and rest_v > 0 and mode == "inertial"
+            hold_stop = min(t_exc_end, duration)
+
+            def static_hold(t: float) -> float:
+                """The quasi-static hold (``static_hold``) tried at t (s), the rock at rest (the
+                caller's test): at rest on a contact polygon that holds the coming loads, the
+                rigid rock stays at rest, so its state is held, not stepped, until the first
+                step whose load it cannot hold. Tried at the start and after any step at rest
+                (the compiled blocks report those: ``rest_prm[1]``), the same steps in both
+                paths; after a test that holds no step, tried again HOLD_RETRY_STEPS later.
+                Returns the time (s) the run continues from."""
+                nonlocal holds, held_s, next_out, stop
+                support = _StaticSupport.at(body, state, pedestal, float(s["epsilon"]), scene.mu_s)
+                ends = (
+                    np.zeros(0)
+                    if support is None
+                    else _hold_end(
+                        t, hold_stop, support, load_many, bps=bps_arr, dt_nom=dt_nom, duration=duration
+                    )
+                )
+                if ends.size == 0:
+                    # half a step past the grid: the kernel's test (t0 + Δt ≥ rest_prm[1]) and
+                    # the step-by-step loop's (t ≥ it) agree
+                    rest_prm[1] = min(t + (HOLD_RETRY_STEPS + 0.5) * dt_nom, t_exc_end)
+                    return t
+                t_end = float(ends[-1])
+                stop = self._hold_span(rec, state, stepper, ends)
+                holds += 1
+                held_s += t_end - t
+                while next_out <= t_end + 1e-9 * dt_nom:
+                    next_out += float(scene.output_dt)
+                rest_prm[1] = t_exc_end if t_end >= hold_stop - 1e-12 * dt_nom else t_end
+                return t_end
+
+            if hold_on:
+                rest_prm[1] = 0.0
+                if self._at_rest(stepper, state, size, dt_nom, rest_v):
+                    t = static_hold(t)
             while not stop and t < duration - 1e-12 * dt_nom:
                 n_check += 1
                 if budget > 0 and n_check >= BUDGET_CHECK_STEPS:
@@ -712,7 +898,16 @@ class ReferenceEngine(EngineBase):
                                 band_lift_max = max(band_lift_max, float(lifted.max()))
                             state = State.from_buf(rows[used - 1].copy())
                             t = float(ts[used - 1])
-                            if not stop and used == ts.size and code == kernel.BLOCK_AT_REST:
+                            if (
+                                not stop
+                                and used == ts.size
+                                and code == kernel.BLOCK_AT_REST
+                                and hold_on
+                                and t < hold_stop - 1e-12 * dt_nom
+                            ):
+                                if self._at_rest(stepper, state, size, dt_nom, rest_v):
+                                    t = static_hold(t)
+                            elif not stop and used == ts.size and code == kernel.BLOCK_AT_REST:
                                 n_cont = int(ncons[used - 1])
                                 pen = float(pens[used - 1])
                                 if self._at_rest(stepper, state, size, dt_nom, rest_v):
@@ -832,6 +1027,14 @@ class ReferenceEngine(EngineBase):
                     rec._count_contacts(n_cont, n_cont, n_cont, 1)
                 if (
                     not stop
+                    and hold_on
+                    and rest_prm[1] <= t < hold_stop - 1e-12 * dt_nom
+                    and self._at_rest(stepper, state, size, dt_nom, rest_v)
+                ):
+                    t = static_hold(t)
+                    continue
+                if (
+                    not stop
                     and rest_v > 0
                     and t >= t_exc_end
                     and self._at_rest(stepper, state, size, dt_nom, rest_v)
@@ -861,6 +1064,9 @@ class ReferenceEngine(EngineBase):
         # CPU s of numba JIT compiles inside this run (0 with a warm cache): in cpu_s, not in the budget
         diag["jit_compile_cpu_s"] = (jit.total() - jit0) if jit is not None else 0.0
         diag["band_projections"] = band_projections
+        # the quasi-static hold during the excitation (static_hold): spans held, simulated s held
+        diag["static_holds"] = holds
+        diag["static_hold_s"] = held_s
         diag["band_projection_max_m"] = band_lift_max
         traj = rec.trajectory(self.name, s, self.versions(), diag)
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
@@ -992,6 +1198,27 @@ class ReferenceEngine(EngineBase):
                 force=tt >= duration - 1e-12 * dt_nom,
             )
         return held_from, tt
+
+    def _hold_span(self, rec: Any, state: Any, stepper: Any, ends: np.ndarray) -> bool:
+        """The rock held at rest over the steps ending at ``ends`` (k,) s (:class:`_StaticSupport`):
+        its velocities set to zero (the rigid solution; the stepped state's are round-off, below
+        ``rest_velocity``) and the held state recorded at every step's end (the recorder keeps
+        its output samples among them, as from stepped rows), its contacts counted per step.
+        Returns the recorder's stop flag."""
+        state.v = 0.0
+        state.l = 0.0
+        stepper.last_omega = [0.0, 0.0, 0.0]
+        m = ends.size
+        n_cont = int(stepper.last_ncontacts)
+        stop, _ = rec.record_block(
+            ends,
+            np.broadcast_to(state.x, (m, 3)),
+            np.broadcast_to(state.R.ravel(), (m, 9)),
+            np.zeros((m, 3)),
+            np.full(m, n_cont, dtype=np.int64),
+            np.full(m, max(0.0, -float(stepper.last_gmin))),
+        )
+        return bool(stop)
 
     @staticmethod
     def _at_rest(stepper: Any, state: Any, size: float, dt: float, rest_v: float) -> bool:
