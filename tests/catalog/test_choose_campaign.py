@@ -182,3 +182,4 @@ def test_choose_page_opens_with_a_verdict_and_the_settings() -> None:
         failed = [r["settings"] for r in csv.DictReader(fh) if int(r["n_failed"])]
     assert ("runs failed" in head) == bool(failed)  # named on the first screen when any failed
     assert "<b>mujoco</b> pbr_xval" in head and "<b>pybullet</b> pbr_xval" in head
+    assert "<b>reference</b> pbr_xval" in head  # the reference solver in the study (issue 23)
