@@ -91,7 +91,7 @@ def _housner(duration: float):
 
 def _cpu(scene, engine, settings=None, repeat: int = 5):
     """(trajectory, best CPU seconds, best wall seconds) of ``repeat`` runs."""
-    best = (None, np.inf, np.inf)
+    best: tuple[Any, float, float] = (None, np.inf, np.inf)
     for _ in range(repeat):
         c0, w0 = time.process_time(), time.perf_counter()
         traj = run_scene(scene, engine, settings)
@@ -238,10 +238,10 @@ def node_scaling(counts: list[int], steps: int = 200) -> float:
             f"{1e6 * per:8.1f} µs CPU per step; status {traj.status}, "
             f"resting solves {d['lcp_solves']}, general {d['lcp_full_solves']}"
         )
-    n = np.array([r[0] for r in rows], dtype=float)
+    nodes = np.array([r[0] for r in rows], dtype=float)
     y = np.array([r[1] for r in rows])
-    sel = (n >= 16) & (n <= 1024)
-    return float(np.polyfit(np.log(n[sel]), np.log(y[sel]), 1)[0])
+    sel = (nodes >= 16) & (nodes <= 1024)
+    return float(np.polyfit(np.log(nodes[sel]), np.log(y[sel]), 1)[0])
 
 
 def main() -> None:
