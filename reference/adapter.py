@@ -392,10 +392,10 @@ class _StaticSupport:
 
     A rigid rock at rest whose contact nodes span a polygon P on the (horizontal) pedestal
     stays at rest under the non-contact load L (the effective gravity g − a_g, m/s², (3,)) if
-    contact forces in the friction cones can balance it: forces f_i = −λ_i m L (λ_i ≥ 0,
-    Σ λ_i = 1, Σ λ_i r_i = p) with p the point where the line through the COM along L meets
-    the pedestal do, when p lies in P (no moment about the COM) and |L_t| ≤ μ_s |L_n| (each
-    f_i in its cone). Rest is then a solution of the rigid contact problem (eqs. 3.6–3.7:
+    contact forces in the friction cones can balance it. They can when the point p where the
+    line through the COM along L meets the pedestal lies in P and |L_t| ≤ μ_s |L_n|: the forces
+    f_i = −λ_i m L (λ_i ≥ 0, Σ λ_i = 1, Σ λ_i r_i = p) then cancel L with no moment about the
+    COM, each in its cone. Rest is then a solution of the rigid contact problem (eqs. 3.6–3.7:
     zero relative acceleration, forces in the cones), so holding the state is exact for the
     rigid model. Housner's static uplift test (|a| < g tan α toward every edge) is this test
     for a horizontal load; a vertical component and the friction cone are included.
@@ -1064,10 +1064,10 @@ class ReferenceEngine(EngineBase):
         # CPU s of numba JIT compiles inside this run (0 with a warm cache): in cpu_s, not in the budget
         diag["jit_compile_cpu_s"] = (jit.total() - jit0) if jit is not None else 0.0
         diag["band_projections"] = band_projections
+        diag["band_projection_max_m"] = band_lift_max
         # the quasi-static hold during the excitation (static_hold): spans held, simulated s held
         diag["static_holds"] = holds
         diag["static_hold_s"] = held_s
-        diag["band_projection_max_m"] = band_lift_max
         traj = rec.trajectory(self.name, s, self.versions(), diag)
         traj.diagnostics["max_penetration_m"] = stepper.stats.max_penetration
         if over_budget and not message and traj.ok:
