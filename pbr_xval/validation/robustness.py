@@ -88,6 +88,14 @@ VARIANTS: dict[str, tuple[dict[str, Any], dict[str, float]]] = {
 KERNEL_VARIANTS: dict[str, str] = {"haswell": "Haswell", "sandybridge": "Sandybridge"}
 
 
+def kernel_env(name: str) -> dict[str, str]:
+    """The environment of a kernel variant's process: OpenBLAS's kernels of that CPU
+    (``OPENBLAS_CORETYPE``) and numba's code generation for it (``NUMBA_CPU_NAME``: the reference
+    solver's compiled kernel, which numba otherwise compiles for this machine's CPU, AVX-512 here;
+    its on-disk cache keeps one build per CPU name). The other engines do not use numba."""
+    return {**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS[name], "NUMBA_CPU_NAME": name}
+
+
 def _variant_scenario(scenario: Path, keys: dict[str, Any], folder: Path) -> Path:
     """The scenario with ``keys`` merged in, written to ``folder`` (file paths made absolute)."""
     d = tomllib.loads(scenario.read_text())
@@ -166,7 +174,7 @@ ENSEMBLE_VARIANTS: dict[str, str] = {
     "tilt": "initial.theta distribution shifted by 1e-9 rad (every member's seating tilt + 1e-9 rad)",
     "dt+1%": "timestep distribution × 1.01 (every member's time step × 1.01)",
     "dt-1%": "timestep distribution × 0.99 (every member's time step × 0.99)",
-    "haswell": "as committed, OpenBLAS forced to its Haswell kernels (OPENBLAS_CORETYPE=Haswell: an AVX2 CPU's)",
+    "haswell": "as committed, OpenBLAS forced to its Haswell kernels (OPENBLAS_CORETYPE=Haswell: an AVX2 CPU's; numba compiling for haswell)",
 }
 _TILT = 1e-9
 _DT_FACTOR = {"dt+1%": 1.01, "dt-1%": 0.99}
@@ -514,7 +522,7 @@ def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
         cmd += ["--half-width", str(a.half_width)]
     if a.tests:
         cmd += ["--tests", a.tests]
-    subprocess.run(cmd, check=True, env={**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS["haswell"]})
+    subprocess.run(cmd, check=True, env=kernel_env("haswell"))
 
 
 def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
@@ -621,7 +629,7 @@ def main(argv: list[str] | None = None) -> int:
             cmd += ["--tests", a.tests]
         env = None
         if name in KERNEL_VARIANTS:  # its own store: the chunk keys do not name the BLAS kernels
-            env = {**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS[name]}
+            env = kernel_env(name)
         print(f"robustness: {a.engine} {name}: {' '.join(cmd[1:])}", flush=True)
         subprocess.run(cmd, check=True, env=env)
         outcomes[name] = pd.read_csv(folder / "outcomes.csv", dtype={"test": str})

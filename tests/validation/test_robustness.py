@@ -106,7 +106,8 @@ def test_kernel_variants_run_validate_with_another_cpus_blas_kernels(
     tmp_path: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """``haswell`` / ``sandybridge``: the committed campaign in a process whose OpenBLAS uses an
-    AVX2 (AVX) CPU's kernels, in a store of its own; ``base`` in this process's environment."""
+    AVX2 (AVX) CPU's kernels and whose numba compiles for that CPU (the reference solver's kernel),
+    in a store of its own; ``base`` in this process's environment."""
     import subprocess
 
     from pbr_xval.validation import robustness
@@ -116,17 +117,22 @@ def test_kernel_variants_run_validate_with_another_cpus_blas_kernels(
     def fake_run(cmd: list[str], check: bool, env: dict[str, str] | None = None) -> None:
         out = tmp_path / cmd[cmd.index("--out") + 1]
         name = out.name
-        seen[name] = (env or {}).get("OPENBLAS_CORETYPE")
+        seen[name] = ((env or {}).get("OPENBLAS_CORETYPE"), (env or {}).get("NUMBA_CPU_NAME"))
         out.mkdir(parents=True, exist_ok=True)
         oc = _oc([1, 0, 0, 1] if name == "base" else [1, 1, 0, 1]).rename(columns={"pred_e": "pred_mujoco"})
         oc.to_csv(out / "outcomes.csv", index=False)
 
     monkeypatch.setattr(subprocess, "run", fake_run)
     monkeypatch.delenv("OPENBLAS_CORETYPE", raising=False)
+    monkeypatch.delenv("NUMBA_CPU_NAME", raising=False)
     rc = main(["camp", "--scenario", str(REPO / "examples/validation/sp1.toml"), "--engine", "mujoco",
                "--out", str(tmp_path / "o"), "--variants", "base,haswell,sandybridge"])  # fmt: skip
     assert rc == 0
-    assert seen == {"base": None, "haswell": "Haswell", "sandybridge": "Sandybridge"}
+    assert seen == {
+        "base": (None, None),
+        "haswell": ("Haswell", "haswell"),
+        "sandybridge": ("Sandybridge", "sandybridge"),
+    }
     assert robustness.KERNEL_VARIANTS == {"haswell": "Haswell", "sandybridge": "Sandybridge"}
     import json
 
