@@ -902,15 +902,14 @@ class ReferenceEngine(EngineBase):
                                 not stop
                                 and used == ts.size
                                 and code == kernel.BLOCK_AT_REST
-                                and hold_on
-                                and t < hold_stop - 1e-12 * dt_nom
+                                and self._at_rest(stepper, state, size, dt_nom, rest_v)
                             ):
-                                if self._at_rest(stepper, state, size, dt_nom, rest_v):
+                                if hold_on and t < hold_stop - 1e-12 * dt_nom:
+                                    # at rest during the excitation: the quasi-static hold
                                     t = static_hold(t)
-                            elif not stop and used == ts.size and code == kernel.BLOCK_AT_REST:
-                                n_cont = int(ncons[used - 1])
-                                pen = float(pens[used - 1])
-                                if self._at_rest(stepper, state, size, dt_nom, rest_v):
+                                else:
+                                    n_cont = int(ncons[used - 1])
+                                    pen = float(pens[used - 1])
                                     held_from, t = self._hold(
                                         rec, scene, state, stepper, pedestal, t, duration, dt_nom, n_cont, pen
                                     )
