@@ -446,6 +446,13 @@ TRADEOFF = ROOT / "reports" / "tradeoff_sp1"
 
 
 @cache
+def _tradeoff_rows() -> tuple[dict[str, str], ...]:
+    """The committed report's per-test rows (reports/tradeoff_sp1/tests.csv), read once."""
+    with (TRADEOFF / "tests.csv").open() as fh:
+        return tuple(csv.DictReader(fh))
+
+
+@cache
 def _observed_sp1() -> dict[str, int]:
     with (SHAKE / "experiments.csv").open() as fh:
         return {r["test"]: int(r["toppled_specimen1"]) for r in csv.DictReader(fh)}
@@ -458,8 +465,7 @@ def test_catalogs_tradeoff_tests_against_the_experiments() -> None:
     n, k = _find("catalogs.md", r"All (\d+) tests of SP1's calibration half \((\d+) toppled\)")
     obs = _observed_sp1()
     assert (len(obs), sum(obs.values())) == (n, k)
-    with (TRADEOFF / "tests.csv").open() as fh:
-        rows = list(csv.DictReader(fh))
+    rows = _tradeoff_rows()
     assert {r["test"] for r in rows} == set(obs)
     assert all(int(r["observed"]) == obs[r["test"]] for r in rows)
     n_set, runs = _find("catalogs.md", r"(\d+) settings, ([\d,]+) runs, every one of them ok")
@@ -471,8 +477,7 @@ def _setting_scores(engine: str, settings: str) -> dict[str, float]:
     """Brier, F1, TP FP FN TN and mean wall time of one setting of the committed report, from its
     per-test predictions and the lab's outcomes."""
     obs = _observed_sp1()
-    with (TRADEOFF / "tests.csv").open() as fh:
-        rows = [r for r in csv.DictReader(fh) if r["engine"] == engine and r["settings"] == settings]
+    rows = [r for r in _tradeoff_rows() if r["engine"] == engine and r["settings"] == settings]
     assert rows and all(r["status"] == "ok" for r in rows), (engine, settings)
     y = np.array([obs[r["test"]] for r in rows])
     p = np.array([int(r["predicted"]) for r in rows])
@@ -547,17 +552,12 @@ def test_catalogs_recommendation_margin() -> None:
     difference of squared errors, recomputed from the per-test predictions and the lab's outcomes; the
     recommended setting is the cheapest within its margin."""
     obs = _observed_sp1()
-    with (TRADEOFF / "tests.csv").open() as fh:
-        rows = list(csv.DictReader(fh))
-    keys = sorted({(r["engine"], r["settings"]) for r in rows})
-    sq = {
-        k: {
-            r["test"]: (int(r["predicted"]) - obs[r["test"]]) ** 2
-            for r in rows
-            if (r["engine"], r["settings"]) == k
-        }
-        for k in keys
-    }
+    sq: dict[tuple[str, str], dict[str, int]] = {}
+    for r in _tradeoff_rows():
+        sq.setdefault((r["engine"], r["settings"]), {})[r["test"]] = (
+            int(r["predicted"]) - obs[r["test"]]
+        ) ** 2
+    keys = sorted(sq)
     best = min(keys, key=lambda k: np.mean(list(sq[k].values())))
     assert best == ("reference", _settings("0.001", None))
     d4, m4, d1, m1, dd4, md4 = _find(
@@ -565,16 +565,19 @@ def test_catalogs_recommendation_margin() -> None:
         r"MuJoCo hull at 4 ms: \+([\d.]+) against a margin of ([\d.]+) on 196 tests; MuJoCo hull at 1 ms: \+([\d.]+)"
         r" against ([\d.]+); MuJoCo decimated at 4 ms: \+([\d.]+) against ([\d.]+)\)",
     )
+    documented = {
+        ("mujoco", _settings("0.004", "hull")): (d4, m4),
+        ("mujoco", _settings("0.001", "hull")): (d1, m1),
+        ("mujoco", _settings("0.004", "decimated")): (dd4, md4),
+    }
     within = {}
     for k in keys:
         diff = np.array([sq[k][t] - sq[best][t] for t in sq[best]])
         se = diff.std(ddof=1) / math.sqrt(diff.size) if k != best else 0.0
         within[k] = diff.mean() <= se
-        doc = {("mujoco", _settings("0.004", "hull")): (d4, m4), ("mujoco", _settings("0.001", "hull")): (d1, m1),
-               ("mujoco", _settings("0.004", "decimated")): (dd4, md4)}.get(k)  # fmt: skip
-        if doc is not None:
-            assert diff.mean() == pytest.approx(doc[0], abs=5e-4), k
-            assert se == pytest.approx(doc[1], abs=5e-4), k
+        if k in documented:
+            assert diff.mean() == pytest.approx(documented[k][0], abs=5e-4), k
+            assert se == pytest.approx(documented[k][1], abs=5e-4), k
     assert (
         within[("mujoco", _settings("0.004", "hull"))]
         and not within[("mujoco", _settings("0.004", "decimated"))]
