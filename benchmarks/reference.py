@@ -24,8 +24,8 @@ Figures, each printed next to its goal as a ratio (value / goal; ≤ 1 meets it)
    1.4–1.5× after its ninth (the resting solve's second try) — see
    ``reference/PERFORMANCE.md``), printed twice: with the quasi-static hold (``static_hold``,
    the default: the rock at rest on its support is held, not stepped) and with every step
-   simulated (``static_hold = false``), the stepping cost the goal was set on. SP1's two engines are run alternately, 15 times each, and the
-   ratio of their best CPU times is the figure (the median of the 15 pair ratios beside it): their
+   simulated (``static_hold = false``), the stepping cost the goal was set on. SP1's runs are
+   alternated, 15 times each, and the ratio of their best CPU times is the figure (the median of the 15 pair ratios beside it): their
    0.07–0.18 s runs move with the host. Per shake-table test:
    ``benchmarks/reference_campaign.py``.
 
@@ -181,10 +181,13 @@ def sp1_speed() -> dict[str, float]:
         run_scene(scene, engine)  # warm-up (JIT cache, model compile, stability table)
     # "reference (stepped)": static_hold off, every step simulated — the stepping cost per simulated
     # second that the goal was set on; with the hold (the default) the rock at rest is not stepped
-    runs = {"reference": ("reference", None), "reference (stepped)": ("reference", {"static_hold": False})}
-    runs["mujoco"] = ("mujoco", None)
+    runs: dict[str, tuple[str, dict[str, Any] | None]] = {
+        "reference": ("reference", None),
+        "reference (stepped)": ("reference", {"static_hold": False}),
+        "mujoco": ("mujoco", None),
+    }
     best: dict[str, tuple[Any, float, float]] = {}
-    pairs: dict[str, list[float]] = {"reference": [], "reference (stepped)": []}
+    pairs: dict[str, list[float]] = {label: [] for label in runs if label != "mujoco"}
     for _ in range(15):
         cpu_pair = {}
         for label, (engine, settings) in runs.items():
