@@ -24,8 +24,9 @@ This is the one place that lists them; each is also marked where it is implement
    statuses — impending slip: static friction on the cone, its direction found by a Newton
    iteration so that it opposes the tangential acceleration — one equality solve, *verified*
    against every condition of eqs. 3.6–3.7, a few corrections);
-   when no guess verifies, from an iterative cone solver (:func:`cone.solve_friction_cone`)
-   and, if that does not converge, a 16-facet friction-pyramid LCP solved by Lemke
+   when no guess verifies, from an iterative cone solver (:func:`cone.solve_friction_cone`:
+   Gauss–Seidel, then, from its 100th sweep, Newton on the contact modes it has found,
+   verified against the same conditions) and, if that does not converge, a 16-facet friction-pyramid LCP solved by Lemke
    (:func:`cone.solve_friction_pyramid`). Failures of both are counted (``lcp_failures``).
 2. **Sticking on three or more points is solved in the least-squares sense.** The centripetal
    part |ω|² r of the contact accelerations cannot be cancelled by any contact force when

@@ -403,6 +403,145 @@ def _mode_polish_once(
     return base + Gm @ dx
 
 
+#: a Newton candidate (:func:`_mode_newton`) is accepted when its dimensionless residual merit
+#: (:func:`_friction_merit`) is at most this: eqs. 3.6–3.7 hold to round-off (a converged
+#: Gauss–Seidel answer measures 1e-14–1e-13 on the impacts of the SP1/SP2 campaigns)
+NEWTON_MERIT_TOL = 1e-12
+
+
+def _mode_system(
+    x: np.ndarray, slots: list[tuple[int, int]], A: np.ndarray, b: np.ndarray, mu: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The residuals (n,), their Jacobian (n, n) and the forces (3k,) of :func:`_mode_newton`'s
+    unknowns ``x`` (n,): ``slots`` lists (contact, 3) for a sticking and (contact, 2) for a
+    sliding contact, in the order of ``x``."""
+    k = b.size // 3
+    ff = np.zeros(3 * k)
+    df = np.zeros((3 * k, x.size))
+    j = 0
+    for i, m in slots:
+        if m == 3:
+            ff[3 * i : 3 * i + 3] = x[j : j + 3]
+            df[3 * i : 3 * i + 3, j : j + 3] = np.eye(3)
+        else:
+            fn, c, s = x[j], math.cos(x[j + 1]), math.sin(x[j + 1])
+            ff[3 * i : 3 * i + 3] = (fn, mu[i] * fn * c, mu[i] * fn * s)
+            df[3 * i : 3 * i + 3, j] = (1.0, mu[i] * c, mu[i] * s)
+            df[3 * i + 1 : 3 * i + 3, j + 1] = (-mu[i] * fn * s, mu[i] * fn * c)
+        j += m
+    aa = A @ ff + b
+    da = A @ df
+    res = np.empty(x.size)
+    jac = np.empty((x.size, x.size))
+    j = 0
+    for i, m in slots:
+        if m == 3:
+            res[j : j + 3] = aa[3 * i : 3 * i + 3]
+            jac[j : j + 3] = da[3 * i : 3 * i + 3]
+        else:
+            c, s = math.cos(x[j + 1]), math.sin(x[j + 1])
+            res[j] = aa[3 * i]
+            jac[j] = da[3 * i]
+            res[j + 1] = aa[3 * i + 1] * s - aa[3 * i + 2] * c
+            jac[j + 1] = da[3 * i + 1] * s - da[3 * i + 2] * c
+            jac[j + 1, j + 1] += aa[3 * i + 1] * c + aa[3 * i + 2] * s
+        j += m
+    return res, jac, ff
+
+
+def _mode_newton(
+    A: np.ndarray, b: np.ndarray, f: np.ndarray, mu: np.ndarray, *, rounds: int = 4, iters: int = 30
+) -> np.ndarray | None:
+    """The solution of eqs. 3.6–3.7 with the contact modes of the iterate ``f``, by Newton.
+
+    Gauss–Seidel finds the modes of a contact problem (open, sticking, sliding) long before
+    it converges: on a singular ``A`` (three contacts, rank 6 of 9, the rock's impacts on
+    its pedestal) the load drifts between redundant contacts and the sliding directions
+    turn slowly, for thousands of sweeps, and some problems never meet the sweep-change
+    criterion. With the modes fixed the rest is a small smooth system. Unknowns: ``f`` of a
+    sticking contact (3), ``(f_n, θ)`` of a sliding one, ``f_t = μ f_n (cos θ, sin θ)``.
+    Equations: ``a = 0`` (sticking), ``a_n = 0`` and ``a_t × (cos θ, sin θ) = 0`` (sliding),
+    with ``a = A f + b``: as many equations as unknowns, solved by Gauss–Newton (minimum-norm
+    steps, ``lstsq``: the redundant load is left where it is) with a backtracking line
+    search. A mode that the result contradicts is switched (a sticking or sliding contact
+    pulled into tension opens; an open one pushed into the pedestal sticks; a sticking
+    force outside its cone slides; a sliding force along its acceleration turns round) and
+    the solve repeated, at most ``rounds`` times.
+
+    Returns the candidate forces (3k,), or None when there is nothing to solve (every
+    contact open). The caller verifies the candidate against every condition
+    (:func:`_friction_merit`); nothing here claims it is a solution.
+    """
+    k = b.size // 3
+    F = f.reshape(k, 3)
+    fs = max(float(np.max(np.abs(f))) if f.size else 0.0, 1e-300)
+    b_scale = max(float(np.max(np.abs(b))), 1e-300)
+    mode = np.zeros(k, dtype=int)  # 0 open, 1 sticking, 2 sliding
+    theta = np.zeros(k)
+    for i in range(k):
+        nt = math.hypot(F[i, 1], F[i, 2])
+        if F[i, 0] <= 1e-9 * fs:
+            mode[i] = 0
+        elif nt < mu[i] * F[i, 0] * (1.0 - 1e-6):
+            mode[i] = 1
+        else:
+            mode[i] = 2
+            theta[i] = math.atan2(F[i, 2], F[i, 1])
+    cand: np.ndarray | None = None
+    for _ in range(rounds):
+        # unknown layout: sticking contact i -> (f_n, f_x, f_y); sliding -> (f_n, θ)
+        slots = [(i, 3) for i in range(k) if mode[i] == 1] + [(i, 2) for i in range(k) if mode[i] == 2]
+        if not slots:
+            return None
+        x0: list[float] = []
+        for i, m in slots:
+            x0 += [F[i, 0], F[i, 1], F[i, 2]] if m == 3 else [F[i, 0], theta[i]]
+        x = np.array(x0)
+
+        res, jac, ff = _mode_system(x, slots, A, b, mu)
+        norm = float(np.linalg.norm(res))
+        for _ in range(iters):
+            if norm <= 1e-15 * b_scale:
+                break
+            dx = np.linalg.lstsq(jac, -res, rcond=1e-12)[0]
+            step = 1.0
+            while True:
+                res2, jac2, ff2 = _mode_system(x + step * dx, slots, A, b, mu)
+                norm2 = float(np.linalg.norm(res2))
+                if norm2 < norm or step < 1e-4:
+                    break
+                step *= 0.5
+            if not norm2 < norm:
+                break
+            x, res, jac, ff, norm = x + step * dx, res2, jac2, ff2, norm2
+        cand = ff
+        aa = A @ ff + b
+        F = ff.reshape(k, 3).copy()
+        changed = False
+        j = 0
+        for i in range(k):
+            if mode[i] == 0:
+                if aa[3 * i] < -1e-12 * b_scale:
+                    mode[i], changed = 1, True
+        for i, m in slots:
+            if m == 3:
+                if F[i, 0] < 0.0:
+                    mode[i], changed = 0, True
+                elif math.hypot(F[i, 1], F[i, 2]) > mu[i] * F[i, 0]:
+                    mode[i], theta[i], changed = 2, math.atan2(F[i, 2], F[i, 1]), True
+            else:
+                theta[i] = x[j + 1]
+                if F[i, 0] < 0.0:
+                    mode[i], changed = 0, True
+                elif aa[3 * i + 1] * math.cos(theta[i]) + aa[3 * i + 2] * math.sin(theta[i]) > 0.0:
+                    theta[i], changed = theta[i] + math.pi, True  # friction along the slip: turn round
+            j += m
+        F[mode == 0] = 0.0
+        if not changed:
+            break
+    return cand
+
+
 def solve_friction_cone(
     A: np.ndarray,
     b: np.ndarray,
@@ -412,6 +551,7 @@ def solve_friction_cone(
     max_iter: int = 10000,
     warm_start: np.ndarray | None = None,
     restart_after: int | None = 500,
+    newton_every: int | None = 100,
 ) -> FrictionResult:
     """Resting contact forces with an exact circular friction cone (eqs. 3.6–3.7).
 
@@ -431,6 +571,14 @@ def solve_friction_cone(
     Every 25 sweeps a contact-mode polish (:func:`_mode_polish`) is tried and kept
     only if it lowers the residual merit; it removes the slow drift of load between
     redundant contacts (singular ``A``) that plain Gauss–Seidel suffers from.
+    Every ``newton_every`` sweeps the modes of the iterate are solved for by Newton
+    (:func:`_mode_newton`); a candidate that meets every condition to round-off (merit
+    ≤ :data:`NEWTON_MERIT_TOL`) is the answer (converged; ``method`` gains ``"+newton"``).
+    Gauss–Seidel alone needed 400–9,600 sweeps on the few impacts of a long rocking run whose
+    three contacts load a rank-6 ``A``, and on about one such impact per run it did not meet
+    its criterion in 20,000 (residual merit 1e-6–1e-4 left); Newton from the 100th sweep's
+    modes met them to 1e-16 in 0.1–0.4 ms. A problem that converges within ``newton_every``
+    sweeps never meets this stage (the answer is bit for bit that of Gauss–Seidel alone).
     If the iteration has not converged after ``restart_after`` sweeps it is restarted
     once from the solution of the 16-facet pyramid LCP (:func:`solve_friction_pyramid`,
     Lemke), which is usually within the facet error of the cone solution; the sweep
@@ -460,17 +608,24 @@ def solve_friction_cone(
     restart_after : int or None
         Sweeps before the one-time restart from the pyramid-LCP solution; ``None``
         disables it.
+    newton_every : int or None
+        Sweeps between Newton solves of the iterate's contact modes (a multiple of 25, the
+        polish period); ``None`` disables them.
 
     Returns
     -------
     FrictionResult
-        ``method == "pgs_cone"``, or ``"pgs_cone+pyramid_restart"`` when the restart
-        was used.
+        ``method == "pgs_cone"``, ``"pgs_cone+pyramid_restart"`` when the restart
+        was used, either with ``"+newton"`` when a Newton candidate was the answer.
     """
     A = np.asarray(A, dtype=float)
     b = np.asarray(b, dtype=float).reshape(-1)
     if b.size % 3 or A.shape != (b.size, b.size):
         raise ValueError("A must be (3k, 3k) and b (3k,)")
+    if newton_every is not None and (newton_every <= 0 or newton_every % 25):
+        raise ValueError(
+            f"newton_every must be a positive multiple of 25 (the polish period), got {newton_every}"
+        )
     k = b.size // 3
     mu_arr = _mu_vector(mu, k)
     f = np.zeros(3 * k)
@@ -531,6 +686,15 @@ def solve_friction_cone(
                 f, a, mu_arr, fs, acc_scale
             ):
                 f, a = cand, a_c
+            if newton_every and it % newton_every == 0:
+                newt = _mode_newton(A, b, f, mu_arr)
+                if newt is not None:
+                    a_n = A @ newt + b
+                    fs_n = max(float(np.max(np.abs(newt))), force_scale, 1e-300)
+                    if _friction_merit(newt, a_n, mu_arr, fs_n, acc_scale) <= NEWTON_MERIT_TOL:
+                        f, converged, method = newt, True, method + "+newton"
+                        it -= 1  # sweeps done
+                        break
         end = min(max_iter, (it // polish_every + 1) * polish_every - 1)
         if restart_after is not None and restart_after + 1 > it:
             end = min(end, restart_after)
