@@ -349,14 +349,24 @@ def _points_z_and_xy(
     lowest, as a material point; and the spread of the support points' heights (n,) m."""
     n = com.shape[0]
     k = sc.hull.shape[0]
-    low = np.empty(n)
-    contact = np.empty((n, 3))
-    spread = np.zeros(n)
+    # a sample whose pose repeats the previous one exactly (a rock held at rest, recorded at every
+    # output sample) has the same points: computed once per run of equal poses
+    new_pose = np.ones(n, dtype=bool)
+    if n > 1:
+        new_pose[1:] = np.any(com[1:] != com[:-1], axis=1) | np.any(
+            rot[1:].reshape(n - 1, 9) != rot[:-1].reshape(n - 1, 9), axis=1
+        )
+    first = np.flatnonzero(new_pose)
+    u = first.size
+    com_u, rot_u = com[first], rot[first]
+    low = np.empty(u)
+    contact = np.empty((u, 3))
+    spread = np.zeros(u)
     step = max(1, _CHUNK // max(k, 1))
     hull_t = np.ascontiguousarray(sc.hull.T)
-    for a in range(0, n, step):
-        b = min(n, a + step)
-        z = rot[a:b, 2, :] @ hull_t + com[a:b, 2:3]  # (m, k)
+    for a in range(0, u, step):
+        b = min(u, a + step)
+        z = rot_u[a:b, 2, :] @ hull_t + com_u[a:b, 2:3]  # (m, k)
         zmin = z.min(axis=1)
         low[a:b] = zmin
         near = z <= zmin[:, None] + tol
@@ -364,6 +374,9 @@ def _points_z_and_xy(
         if sc.support.size >= 2:
             zs = z[:, sc.support]
             spread[a:b] = zs.max(axis=1) - zs.min(axis=1)
+    if u < n:
+        pose = np.cumsum(new_pose) - 1  # each sample's row among the distinct poses
+        low, contact, spread = low[pose], contact[pose], spread[pose]
     r = contact[:-1]
     here = np.einsum("nij,nj->ni", rot[:-1, :2, :], r) + com[:-1, :2]
     there = np.einsum("nij,nj->ni", rot[1:, :2, :], r) + com[1:, :2]

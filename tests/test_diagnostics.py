@@ -351,3 +351,36 @@ def test_impact_times_equal_the_per_sample_rule() -> None:
             th[rng.integers(0, n)] = np.nan
         tol = float(rng.uniform(0.05, 1.0))
         assert impact_times(t, th, tol).tolist() == _impact_times_per_sample(t, th, tol)
+
+
+def test_points_of_repeated_poses_equal_a_per_sample_computation() -> None:
+    """A held rock records the same pose at many samples; the lowest hull point, the support's
+    height spread and the contact's displacement per sample are computed once per run of equal
+    poses. Against a plain loop over the samples (min over the hull of R p + c)."""
+    from scipy.spatial.transform import Rotation
+
+    from pbr_xval.diagnostics import _points_z_and_xy, scene_scales
+
+    scene = compile_scene(housner_scenario())
+    sc = scene_scales(scene)
+    rng = np.random.default_rng(7)
+    poses = Rotation.from_rotvec(rng.normal(0.0, 0.05, (12, 3))).as_matrix()
+    coms = rng.normal(0.0, 0.01, (12, 3)) + [0.0, 0.0, 0.6]
+    runs = [1, 5, 1, 1, 40, 2, 1, 7, 1, 1, 3, 9]  # samples per pose, in order
+    rot = np.concatenate([np.repeat(poses[i : i + 1], m, axis=0) for i, m in enumerate(runs)])
+    com = np.concatenate([np.repeat(coms[i : i + 1], m, axis=0) for i, m in enumerate(runs)])
+    rot[10] = poses[1]  # a pose seen before, not right before: computed again
+    tol = 1e-3
+    low, slip, spread = _points_z_and_xy(sc, com, rot, tol)
+    n = com.shape[0]
+    for i in range(n):
+        z = np.array([(rot[i] @ p + com[i])[2] for p in sc.hull])
+        assert low[i] == pytest.approx(z.min(), abs=1e-12)
+        zs = z[sc.support]
+        assert spread[i] == pytest.approx(zs.max() - zs.min(), abs=1e-12)
+        if i < n - 1:
+            c = sc.hull[z <= z.min() + tol].mean(axis=0)
+            move = (rot[i + 1] @ c + com[i + 1])[:2] - (rot[i] @ c + com[i])[:2]
+            np.testing.assert_allclose(slip[i], move, atol=1e-12)
+    same = np.all(com[1:] == com[:-1], axis=1) & np.all(rot[1:] == rot[:-1], axis=(1, 2))
+    assert same.sum() == sum(runs) - len(runs) - 2 and np.all(slip[same] == 0.0)
