@@ -15,6 +15,7 @@ Not bit-for-bit the chunked ``validate`` run (the scene is built here from the s
 through the catalog chunks), but the same rock, contact, excitation and stopping rule.
 
 Run:  python benchmarks/reference_campaign.py [--specimen 1 2] [--stride 4] [--limit N] [--repeat R]
+      python benchmarks/reference_campaign.py --specimen 2 --tests 596,608 --repeat 5   (chosen tests)
 """
 
 from __future__ import annotations
@@ -69,13 +70,21 @@ def _cpu(scene, engine, repeat: int = 1):
     return traj, best
 
 
-def campaign(specimen: int, stride: int, limit: int | None, folder: Path, repeat: int = 1) -> list[float]:
+def campaign(
+    specimen: int,
+    stride: int,
+    limit: int | None,
+    folder: Path,
+    repeat: int = 1,
+    only: list[str] | None = None,
+) -> list[float]:
     scn = load_scenario(HERE.parent / "examples" / "validation" / f"sp{specimen}.toml")
     camp = load_campaign(SHARED, specimen=specimen)
-    tests = camp.tests[::stride][:limit]
+    tests = [t for t in camp.tests if t.test in only] if only else camp.tests[::stride][:limit]
     camp = camp.select(tests=[t.test for t in tests])
     motions = prepare_motions(camp, Baseline(), folder / f"sp{specimen}")
-    print(f"== SP{specimen}: {len(tests)} tests (every {stride}th of the campaign)")
+    what = f"tests {', '.join(only)}" if only else f"every {stride}th of the campaign"
+    print(f"== SP{specimen}: {len(tests)} tests ({what}; the smallest CPU time of {repeat} runs each)")
     first = _scene(scn, motions[tests[0].test])
     for engine in ("reference", "mujoco"):
         run_scene(first, engine)  # warm-up: JIT cache, model compile, stability table
@@ -124,14 +133,18 @@ def main() -> None:
     ap.add_argument(
         "--repeat", type=int, default=1, help="runs per test and engine; the smallest CPU time counts"
     )
+    ap.add_argument(
+        "--tests", default=None, help="only these tests (comma-separated ids; instead of --stride)"
+    )
     args = ap.parse_args()
+    only = args.tests.split(",") if args.tests else None
     print(
         f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for sp in args.specimen:
             try:
-                campaign(sp, args.stride, args.limit, Path(tmp), args.repeat)
+                campaign(sp, args.stride, args.limit, Path(tmp), args.repeat, only)
             except Exception as exc:  # the shared data or SP2's generated mesh is missing
                 print(f"== SP{sp}: not available ({type(exc).__name__}: {exc})")
     print(f"(load average at end {os.getloadavg()})")
