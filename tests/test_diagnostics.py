@@ -365,7 +365,7 @@ def test_points_of_repeated_poses_equal_a_per_sample_computation() -> None:
     sc = scene_scales(scene)
     rng = np.random.default_rng(7)
     poses = Rotation.from_rotvec(rng.normal(0.0, 0.05, (12, 3))).as_matrix()
-    coms = rng.normal(0.0, 0.01, (12, 3)) + [0.0, 0.0, 0.6]
+    coms = rng.normal(0.0, 0.01, (12, 3)) + np.array([0.0, 0.0, 0.6])
     runs = [1, 5, 1, 1, 40, 2, 1, 7, 1, 1, 3, 9]  # samples per pose, in order
     rot = np.concatenate([np.repeat(poses[i : i + 1], m, axis=0) for i, m in enumerate(runs)])
     com = np.concatenate([np.repeat(coms[i : i + 1], m, axis=0) for i, m in enumerate(runs)])

@@ -78,22 +78,42 @@ VARIANTS: dict[str, tuple[dict[str, Any], dict[str, float]]] = {
     "dt-1%": ({}, {"timestep": 0.99}),
     "haswell": ({}, {}),
     "sandybridge": ({}, {}),
+    "skylakex": ({}, {}),
 }
 
 #: variants that run the committed campaign in a process whose OpenBLAS uses another CPU's kernels
 #: (``OPENBLAS_CORETYPE``, read once when the library loads): the engines' scene set-up (the
 #: principal axes from ``eigh``, rotations by matrix products) rounds differently on an AVX2 CPU
-#: (Haswell kernels: Intel Haswell–Skylake client, AMD Zen 1–3) or an AVX-only one (Sandybridge)
-#: than on this AVX-512 machine (SkylakeX kernels), so what CI sees on another machine is run here.
-KERNEL_VARIANTS: dict[str, str] = {"haswell": "Haswell", "sandybridge": "Sandybridge"}
+#: (Haswell kernels: Intel Haswell–Skylake client, AMD Zen 1–3 — and AMD Zen 5 under OpenBLAS
+#: 0.3.31, which does not take it for an AVX-512 CPU), an AVX-only one (Sandybridge) or an AVX-512
+#: one (SkylakeX kernels: Intel Skylake-SP and later servers, AMD Zen 4), so what CI sees on
+#: another machine is run here. ``skylakex`` needs an AVX-512 CPU to run on.
+KERNEL_VARIANTS: dict[str, str] = {"haswell": "Haswell", "sandybridge": "Sandybridge", "skylakex": "SkylakeX"}
+
+#: numba's (LLVM's) name of each kernel variant's CPU, where it is not the variant's name
+_NUMBA_CPU: dict[str, str] = {"skylakex": "skylake-avx512"}
 
 
 def kernel_env(name: str) -> dict[str, str]:
     """The environment of a kernel variant's process: OpenBLAS's kernels of that CPU
     (``OPENBLAS_CORETYPE``) and numba's code generation for it (``NUMBA_CPU_NAME``: the reference
-    solver's compiled kernel, which numba otherwise compiles for this machine's CPU, AVX-512 here;
-    its on-disk cache keeps one build per CPU name). The other engines do not use numba."""
-    return {**os.environ, "OPENBLAS_CORETYPE": KERNEL_VARIANTS[name], "NUMBA_CPU_NAME": name}
+    solver's compiled kernel, which numba otherwise compiles for this machine's CPU; its on-disk
+    cache keeps one build per CPU name). The other engines do not use numba."""
+    if name == "skylakex" and not _has_avx512():
+        raise SystemExit("robustness: the skylakex variant runs AVX-512 code; this CPU has no avx512f flag")
+    return {
+        **os.environ,
+        "OPENBLAS_CORETYPE": KERNEL_VARIANTS[name],
+        "NUMBA_CPU_NAME": _NUMBA_CPU.get(name, name),
+    }
+
+
+def _has_avx512() -> bool:
+    """Whether this CPU reports the avx512f flag (Linux: /proc/cpuinfo; elsewhere assumed not)."""
+    try:
+        return " avx512f " in Path("/proc/cpuinfo").read_text().replace("\n", " ")
+    except OSError:
+        return False
 
 
 def _variant_scenario(scenario: Path, keys: dict[str, Any], folder: Path) -> Path:
@@ -616,6 +636,9 @@ def main(argv: list[str] | None = None) -> int:
     if "timestep" not in faithful and any(VARIANTS[n][1] for n in names):
         p.error(f"--variants: engine {a.engine!r} has no time step to perturb")
     dt0 = float(faithful.get("timestep", 0.0))
+    for name in names:
+        if name in KERNEL_VARIANTS:
+            kernel_env(name)  # a variant this CPU cannot run stops here, before any simulation
     outcomes: dict[str, pd.DataFrame] = {}
     for name in names:
         keys, factors = VARIANTS[name]

@@ -133,7 +133,20 @@ def test_kernel_variants_run_validate_with_another_cpus_blas_kernels(
         "haswell": ("Haswell", "haswell"),
         "sandybridge": ("Sandybridge", "sandybridge"),
     }
-    assert robustness.KERNEL_VARIANTS == {"haswell": "Haswell", "sandybridge": "Sandybridge"}
+    assert robustness.KERNEL_VARIANTS == {
+        "haswell": "Haswell",
+        "sandybridge": "Sandybridge",
+        "skylakex": "SkylakeX",
+    }
+    # skylakex: an AVX-512 CPU's kernels (what Zen 4 and Intel servers compute), numba's LLVM name for
+    # it; refused before anything runs on a CPU without AVX-512 (its code would stop on an illegal
+    # instruction)
+    monkeypatch.setattr(robustness, "_has_avx512", lambda: True)
+    env = robustness.kernel_env("skylakex")
+    assert (env["OPENBLAS_CORETYPE"], env["NUMBA_CPU_NAME"]) == ("SkylakeX", "skylake-avx512")
+    monkeypatch.setattr(robustness, "_has_avx512", lambda: False)
+    with pytest.raises(SystemExit, match="avx512f"):
+        robustness.kernel_env("skylakex")
     import json
 
     assert json.loads((tmp_path / "o" / "robustness.json").read_text())["fragile_tests"] == ["2"]
