@@ -92,3 +92,24 @@ def test_newton_every_must_be_a_multiple_of_the_polish_period() -> None:
     for bad in (0, 30, -25):
         with pytest.raises(ValueError, match="newton_every"):
             cone.solve_friction_cone(A, b, mu, newton_every=bad)
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.3])
+def test_newton_from_a_rough_iterate_of_the_right_modes(mu: float) -> None:
+    """``_mode_newton`` on its own: from Gauss–Seidel's answer with every loaded force moved by 5 %
+    (the modes kept), it returns forces that meet eqs. 3.6–3.7 and give Gauss–Seidel's accelerations;
+    μ = 0: a loaded frictionless contact is a sliding one with f_t = 0 whose angle θ follows a_t
+    (no force depends on it), so the same equations hold."""
+    A, b, _, _ = _problem("sp2_608_20000")
+    gs = cone.solve_friction_cone(A, b, mu, tol=1e-13, max_iter=20000, newton_every=None)
+    assert gs.converged
+    k = gs.f.size // 3
+    rough = (gs.f.reshape(k, 3) * (1.0 + 0.05 * np.cos(np.arange(k)))[:, None]).reshape(-1)  # per contact
+    cand = cone._mode_newton(A, b, rough, gs.mu)
+    assert cand is not None
+    a = A @ cand + b
+    fs = max(float(np.max(np.abs(cand))), 1e-300)
+    assert cone._friction_merit(cand, a, gs.mu, fs, float(np.max(np.abs(b)))) <= cone.NEWTON_MERIT_TOL
+    np.testing.assert_allclose(a, gs.a, rtol=0, atol=1e-12 * float(np.max(np.abs(b))))
+    if mu == 0.0:
+        assert np.all(cand[1::3] == 0.0) and np.all(cand[2::3] == 0.0)
