@@ -84,7 +84,8 @@ def campaign(
     camp = camp.select(tests=[t.test for t in tests])
     motions = prepare_motions(camp, Baseline(), folder / f"sp{specimen}")
     what = f"tests {', '.join(only)}" if only else f"every {stride}th of the campaign"
-    print(f"== SP{specimen}: {len(tests)} tests ({what}; the smallest CPU time of {repeat} runs each)")
+    runs = "one run each" if repeat == 1 else f"the smallest CPU time of {repeat} runs each"
+    print(f"== SP{specimen}: {len(tests)} tests ({what}; {runs})")
     first = _scene(scn, motions[tests[0].test])
     for engine in ("reference", "mujoco"):
         run_scene(first, engine)  # warm-up: JIT cache, model compile, stability table
