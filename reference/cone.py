@@ -403,6 +403,10 @@ def _mode_polish_once(
     return base + Gm @ dx
 
 
+#: sweeps between the contact-mode polishes of :func:`solve_friction_cone` (its Newton solves come
+#: at multiples of it)
+POLISH_EVERY = 25
+
 #: a Newton candidate (:func:`_mode_newton`) is accepted when its dimensionless residual merit
 #: (:func:`_friction_merit`) is at most this: eqs. 3.6–3.7 hold to round-off (a converged
 #: Gauss–Seidel answer measures 1e-14–1e-13 on the impacts of the SP1/SP2 campaigns)
@@ -622,9 +626,9 @@ def solve_friction_cone(
     b = np.asarray(b, dtype=float).reshape(-1)
     if b.size % 3 or A.shape != (b.size, b.size):
         raise ValueError("A must be (3k, 3k) and b (3k,)")
-    if newton_every is not None and (newton_every <= 0 or newton_every % 25):
+    if newton_every is not None and (newton_every <= 0 or newton_every % POLISH_EVERY):
         raise ValueError(
-            f"newton_every must be a positive multiple of 25 (the polish period), got {newton_every}"
+            f"newton_every must be a positive multiple of {POLISH_EVERY} (the polish period), got {newton_every}"
         )
     k = b.size // 3
     mu_arr = _mu_vector(mu, k)
@@ -660,7 +664,7 @@ def solve_friction_cone(
         eig_lam.append(np.maximum(lam_i, 0.0))
         eig_Q.append(Q_i)
     acc_scale = max(float(np.max(np.abs(b))), 1e-300)
-    polish_every = 25
+    polish_every = POLISH_EVERY
     converged = False
     it = 0
     method = "pgs_cone"

@@ -636,9 +636,9 @@ def main(argv: list[str] | None = None) -> int:
     if "timestep" not in faithful and any(VARIANTS[n][1] for n in names):
         p.error(f"--variants: engine {a.engine!r} has no time step to perturb")
     dt0 = float(faithful.get("timestep", 0.0))
-    for name in names:
-        if name in KERNEL_VARIANTS:
-            kernel_env(name)  # a variant this CPU cannot run stops here, before any simulation
+    # the kernel variants' environments (its own store each: the chunk keys do not name the BLAS
+    # kernels); a variant this CPU cannot run stops here, before any simulation
+    envs = {name: kernel_env(name) for name in names if name in KERNEL_VARIANTS}
     outcomes: dict[str, pd.DataFrame] = {}
     for name in names:
         keys, factors = VARIANTS[name]
@@ -650,9 +650,7 @@ def main(argv: list[str] | None = None) -> int:
             cmd += ["--set", f"{k}={dt0 * f!r}"]
         if a.tests:
             cmd += ["--tests", a.tests]
-        env = None
-        if name in KERNEL_VARIANTS:  # its own store: the chunk keys do not name the BLAS kernels
-            env = kernel_env(name)
+        env = envs.get(name)
         print(f"robustness: {a.engine} {name}: {' '.join(cmd[1:])}", flush=True)
         subprocess.run(cmd, check=True, env=env)
         outcomes[name] = pd.read_csv(folder / "outcomes.csv", dtype={"test": str})

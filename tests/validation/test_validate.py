@@ -125,8 +125,10 @@ def test_documented_f1_against_the_experiments(case: str, tmp_path: Path) -> Non
     ``examples/validation/robustness/<engine>_sp<N>.json`` (written by
     ``python -m pbr_xval.validation.robustness``) lists the tests whose outcome flipped under a
     perturbation far below physical uncertainty (1e-9 rad of initial tilt; for some campaigns also
-    dt × 1.01) or under another CPU's arithmetic (the run with OpenBLAS's Haswell kernels, and for the
-    reference solver numba compiling for Haswell: what an AVX2 machine without AVX-512 computes):
+    dt × 1.01), under another CPU's arithmetic (the run with OpenBLAS's Haswell kernels, and for the
+    reference solver numba compiling for Haswell: what an AVX2 machine without AVX-512 computes; for the
+    reference also the SkylakeX build, an AVX-512 machine's) or in the 11-run mass round-off ensembles
+    (mass × (1 + j·1e-12): the tests that toppled in some runs only; ``variants.mass`` in each file):
     those are *fragile*, their outcome on another machine a
     coin flip. Every other
     (*robust*) test must give the outcome measured there, exactly; the F1 must lie in the interval
