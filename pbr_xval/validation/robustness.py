@@ -11,7 +11,13 @@ outcome, per engine the fragile share, and the F1 over the variants.
 Perturbations (each far below what is physically known about a rock on a table):
 
 * ``tilt``: an initial rocking angle of 1e-9 rad (``initial.theta``);
-* ``dt+1%`` / ``dt-1%``: the engine's time step × 1.01 / × 0.99 (``--set timestep=…``).
+* ``dt+1%`` / ``dt-1%``: the engine's time step × 1.01 / × 0.99 (``--set timestep=…``);
+* ``mass``: the 11-run mass round-off ensemble — the campaign again with the rock's mass (or, for a
+  scenario that gives a density, its density) × (1 + j·1e-12), j = −5 … 5 (j = 0 is ``base``; runs
+  ``mass-5`` … ``mass+5``): for a rigid rock a change the equations almost scale out, yet it finds
+  coin flips that the tilt and the BLAS builds do not (docs/validation.md, "Machine dependence");
+* ``haswell`` / ``sandybridge`` / ``skylakex``: the committed campaign in a process whose OpenBLAS
+  (and numba, for the reference solver) computes what another CPU family computes.
 
 Usage (a developer tool; minutes per engine and specimen)::
 
@@ -20,6 +26,21 @@ Usage (a developer tool; minutes per engine and specimen)::
 
 writes ``robustness.csv`` (per test: observed, each variant's prediction, ``fragile``) and
 ``robustness.json`` (fragile share, F1 per variant, the outcome of every test that is robust).
+
+**CI guard files** (``examples/validation/robustness/<engine>_sp<N>.json``, read by
+``tests/validation/test_validate.py::test_documented_f1_against_the_experiments``): ``--guard FILE``
+writes one from this run — the fragile and robust tests, the F1 interval the fragile tests allow
+(:func:`f1_range`), the base run's confusion counts, the best fitted rule's F1 and whether the
+worst case still beats it, and where, when, on which CPU and by which command it was measured.
+``--merge OLD.json`` (repeatable) unites it with guard files measured elsewhere (another machine,
+earlier variants, :func:`merge_guards`): a test is fragile if it was fragile in any, and a test
+robust in every file but with different outcomes is fragile too (it moved with the machine)::
+
+    python -m pbr_xval.validation.robustness ../shared/data/shake_table --specimen 2 \
+        --scenario examples/validation/sp2.toml --engine reference \
+        --variants base,tilt,haswell,skylakex,mass --out runs/robust_sp2_reference \
+        --merge examples/validation/robustness/reference_sp2.json \
+        --guard examples/validation/robustness/reference_sp2.json
 
 **Ensembles** (``--ensemble``, issue 22): the scenario's ``[uncertainty]`` ensemble of every test
 (as ``pbr-xval validate --ensemble``, without the deterministic runs) once as committed and once per
@@ -65,7 +86,10 @@ __all__ = [
     "ensemble_variant_uncertainty",
     "f1_range",
     "fragility_table",
+    "guard_record",
     "main",
+    "mass_variants",
+    "merge_guards",
     "run_ensemble_variant",
     "summarise",
 ]
@@ -79,6 +103,21 @@ VARIANTS: dict[str, tuple[dict[str, Any], dict[str, float]]] = {
     "haswell": ({}, {}),
     "sandybridge": ({}, {}),
     "skylakex": ({}, {}),
+}
+
+#: what each variant (family) perturbs, as a guard file records it
+VARIANT_DESCRIPTIONS: dict[str, str] = {
+    "tilt": "initial.theta = 1e-9 rad",
+    "dt+1%": "the engine's time step x 1.01",
+    "dt-1%": "the engine's time step x 0.99",
+    "haswell": "OPENBLAS_CORETYPE=Haswell and NUMBA_CPU_NAME=haswell: the BLAS kernels of an AVX2 CPU "
+    "without AVX-512 (Intel Haswell-Skylake client, AMD Zen 1-3; AMD Zen 5 under OpenBLAS 0.3.31) and "
+    "numba's code for it (the reference solver's kernel)",
+    "sandybridge": "OPENBLAS_CORETYPE=Sandybridge and NUMBA_CPU_NAME=sandybridge: an AVX-only CPU's kernels",
+    "skylakex": "OPENBLAS_CORETYPE=SkylakeX and NUMBA_CPU_NAME=skylake-avx512: the BLAS kernels of an "
+    "AVX-512 CPU (Intel Skylake-SP and later servers, AMD Zen 4) and numba's code for it",
+    "mass": "rock.mass (or rock.density) x (1 + j 1e-12), j = -5..5 (runs mass-5 .. mass+5; j = 0 is base): "
+    "a test that toppled in some but not all 11 runs is fragile",
 }
 
 #: variants that run the committed campaign in a process whose OpenBLAS uses another CPU's kernels
@@ -129,6 +168,28 @@ def _variant_scenario(scenario: Path, keys: dict[str, Any], folder: Path) -> Pat
     folder.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out, tomli_w.dumps(d))
     return out
+
+
+#: the mass round-off ensemble (variant ``mass``): relative step and the range of j (j = 0 is base)
+MASS_STEP = 1e-12
+MASS_J = range(-5, 6)
+
+
+def mass_variants(scenario: Path) -> dict[str, dict[str, Any]]:
+    """The runs of the ``mass`` variant: name (``mass-5`` … ``mass+5``, no j = 0) → the ``[rock]``
+    keys to set, the scenario's ``rock.mass`` (kg) or else ``rock.density`` (kg/m³) × (1 + j·1e-12).
+
+    Raises ``ValueError`` naming the scenario when it gives neither (a primitive rock's mass from
+    its dimensions has nothing to perturb here)."""
+    rock = tomllib.loads(scenario.read_text()).get("rock", {})
+    key = "mass" if "mass" in rock else "density" if "density" in rock else None
+    if key is None:
+        raise ValueError(
+            f"{scenario}: [rock] has neither mass nor density: found keys {sorted(rock)}; the mass variant "
+            "perturbs one of them"
+        )
+    v0 = float(rock[key])
+    return {f"mass{j:+d}": {"rock": {key: v0 * (1.0 + j * MASS_STEP)}} for j in MASS_J if j != 0}
 
 
 def fragility_table(outcomes: dict[str, pd.DataFrame], engine: str) -> pd.DataFrame:
@@ -185,6 +246,119 @@ def f1_range(observed: dict[str, int], robust: dict[str, int], fragile: list[str
         return 2 * a / (2 * a + b + c) if a else 0.0
 
     return f1(tp, fp + neg, fn + pos), f1(tp + pos, fp, fn)
+
+
+#: the empirical threshold rules of ``validate``'s scores (out of fold by record): a guard records the
+#: best one's F1 and whether the engine's worst case beats it
+RULES = ("PGA rule", "PGV rule", "PGA-and-PGV rule")
+
+
+def _confusion(observed: dict[str, int], pred: dict[str, int]) -> dict[str, int]:
+    pairs = [(observed[t], int(pred[t])) for t in observed]
+    return {
+        "tp": sum(1 for o, p in pairs if o == 1 and p == 1),
+        "fp": sum(1 for o, p in pairs if o == 0 and p == 1),
+        "fn": sum(1 for o, p in pairs if o == 1 and p == 0),
+        "tn": sum(1 for o, p in pairs if o == 0 and p == 0),
+    }
+
+
+def guard_record(
+    table: pd.DataFrame,
+    *,
+    engine: str,
+    specimen: int,
+    scenario: str,
+    subset: bool,
+    variants: dict[str, str],
+    best_rule_f1: float,
+    measured: dict[str, Any],
+) -> dict[str, Any]:
+    """A CI guard file's content from one :func:`fragility_table` (its ``base`` column the run as
+    committed): the tests, the fragile ones (any variant flipped them), the robust tests' outcomes,
+    F1 per variant, the interval the fragile tests allow (:func:`f1_range`), the base run's
+    confusion counts, the best fitted rule's F1 (``best_rule_f1``) and ``beats_rules`` (the
+    interval's low end above it). ``variants``: family name → what it perturbs; ``measured``: the
+    provenance (:func:`_provenance`)."""
+    cols = [c for c in table.columns if c not in ("observed", "fragile")]
+    tests = [str(t) for t in table.index]
+    observed = {str(t): int(o) for t, o in table["observed"].items()}
+    fragile = [str(t) for t in table.index[table["fragile"]]]
+    robust = {str(t): int(v) for t, v in table.loc[~table["fragile"], "base"].items()}
+    lo, hi = f1_range(observed, robust, fragile)
+    return {
+        "engine": engine,
+        "specimen": int(specimen),
+        "scenario": scenario,
+        "subset": bool(subset),
+        "tests": tests,
+        "observed": observed,
+        "variants": dict(variants),
+        "variants_run": cols,
+        "fragile_tests": fragile,
+        "fragile_share": len(fragile) / len(tests),
+        "fragile_by_variant": {
+            c: [str(t) for t in table.index[table[c] != table["base"]]] for c in cols if c != "base"
+        },
+        "f1": {c: _f1(table["observed"], table[c]) for c in cols},
+        "f1_range": [lo, hi],
+        "confusion_base": _confusion(observed, {str(t): int(v) for t, v in table["base"].items()}),
+        "best_rule_f1": float(best_rule_f1),
+        "beats_rules": bool(lo > best_rule_f1),
+        "robust_outcomes": robust,
+        "measured": [measured],
+    }
+
+
+def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
+    """``new`` (:func:`guard_record`) united with guard files measured elsewhere (``old``: another
+    machine, other variants, earlier code of the same results).
+
+    A test is fragile if it is fragile in any file; a test robust in every file but with different
+    outcomes is fragile too (its outcome moved with the machine: ``machine_flips``). The robust
+    outcomes, F1 interval and ``beats_rules`` are recomputed; the F1s, confusion counts and
+    rule F1 stay ``new``'s (this machine's run); ``variants`` and ``measured`` collect every file's.
+    Raises ``ValueError`` when the files are of different engines, specimens or test sets."""
+    out = dict(new)
+    fragile = set(new["fragile_tests"])
+    robust = dict(new["robust_outcomes"])
+    machine_flips: set[str] = set(new.get("machine_flips", []))
+    variants = dict(new["variants"])
+    measured = list(new["measured"])
+    for o in old:
+        for k in ("engine", "specimen"):
+            if o[k] != new[k]:
+                raise ValueError(f"merge: {k} {o[k]!r} in the old guard, {new[k]!r} in this run")
+        if sorted(o["tests"]) != sorted(new["tests"]):
+            raise ValueError(
+                f"merge: the old guard has {len(o['tests'])} tests, this run {len(new['tests'])}: "
+                "expected the same test set"
+            )
+        fragile |= set(o["fragile_tests"])
+        machine_flips |= set(o.get("machine_flips", []))
+        for t, v in o["robust_outcomes"].items():
+            if t in robust and robust[t] != int(v):
+                machine_flips.add(t)
+        for k, v in o.get("variants", {}).items():
+            variants.setdefault(k, v)
+        m = o.get("measured", [])
+        measured.extend(m if isinstance(m, list) else [m])
+    fragile |= machine_flips
+    order = [str(t) for t in new["tests"]]
+    observed = {str(t): int(v) for t, v in new["observed"].items()}
+    robust = {t: robust[t] for t in order if t not in fragile}
+    lo, hi = f1_range(observed, robust, [t for t in order if t in fragile])
+    out.update(
+        fragile_tests=[t for t in order if t in fragile],
+        fragile_share=len(fragile) / len(order),
+        machine_flips=[t for t in order if t in machine_flips],
+        robust_outcomes=robust,
+        f1_range=[lo, hi],
+        beats_rules=bool(lo > float(new["best_rule_f1"])),
+        variants=variants,
+        measured=measured,
+    )
+    return out
 
 
 # --------------------------------------------------------------------------- ensembles (issue 22)
@@ -617,6 +791,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--tests", default=None)
     p.add_argument("--variants", default=",".join(v for v in VARIANTS if v not in KERNEL_VARIANTS))
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--guard", type=Path, default=None, help="write a CI guard file (deterministic mode)")
+    p.add_argument(
+        "--merge",
+        action="append",
+        default=None,
+        help="a guard file measured elsewhere to unite with --guard's",
+    )
     a = p.parse_args(argv)
     from pbr_xval.engine import get_engine
 
@@ -629,19 +810,41 @@ def main(argv: list[str] | None = None) -> int:
         return _ensemble_main(a, names)
     if a.engine is None:
         p.error("--engine is required (or --ensemble)")
-    unknown = sorted(set(names) - set(VARIANTS))
+    unknown = sorted(set(names) - set(VARIANTS) - {"mass"})
     if unknown or "base" not in names:
-        p.error(f"--variants: {unknown or 'base missing'}: expected 'base' and any of {', '.join(VARIANTS)}")
+        p.error(
+            f"--variants: {unknown or 'base missing'}: expected 'base' and any of {', '.join([*VARIANTS, 'mass'])}"
+        )
     faithful = get_engine(a.engine).profiles()["faithful"]
-    if "timestep" not in faithful and any(VARIANTS[n][1] for n in names):
+    if "timestep" not in faithful and any(VARIANTS[n][1] for n in names if n in VARIANTS):
         p.error(f"--variants: engine {a.engine!r} has no time step to perturb")
     dt0 = float(faithful.get("timestep", 0.0))
-    # the kernel variants' environments (its own store each: the chunk keys do not name the BLAS
-    # kernels); a variant this CPU cannot run stops here, before any simulation
+    # every check before any simulation: the mass to perturb, the guard files to merge, the kernel
+    # variants' environments (its own store each: the chunk keys do not name the BLAS kernels)
+    runs: dict[str, tuple[dict[str, Any], dict[str, float]]] = {}
+    for name in names:
+        if name == "mass":
+            try:
+                runs.update({k: (keys, {}) for k, keys in mass_variants(a.scenario).items()})
+            except (OSError, ValueError) as exc:
+                p.error(f"--variants mass: {exc}")
+        else:
+            runs[name] = VARIANTS[name]
+    old: list[dict[str, Any]] = []
+    for f in a.merge or []:
+        try:
+            g = json.loads(Path(f).read_text())
+        except (OSError, ValueError) as exc:
+            p.error(f"--merge {f}: {exc}")
+        if g.get("engine") != a.engine or int(g.get("specimen", -1)) != a.specimen:
+            p.error(
+                f"--merge {f}: engine {g.get('engine')!r}, specimen {g.get('specimen')!r}; expected "
+                f"{a.engine!r}, {a.specimen}"
+            )
+        old.append(g)
     envs = {name: kernel_env(name) for name in names if name in KERNEL_VARIANTS}
     outcomes: dict[str, pd.DataFrame] = {}
-    for name in names:
-        keys, factors = VARIANTS[name]
+    for name, (keys, factors) in runs.items():
         folder = a.out / name.replace("%", "pct").replace("+", "plus").replace("-", "minus")
         scn = _variant_scenario(a.scenario, keys, folder) if keys else a.scenario
         cmd = [_cli(), "validate", a.campaign, "--specimen", str(a.specimen),
@@ -659,7 +862,7 @@ def main(argv: list[str] | None = None) -> int:
         "engine": a.engine,
         "specimen": a.specimen,
         "scenario": str(a.scenario),
-        **summarise(table, names),
+        **summarise(table, list(runs)),
     }
     write_text_atomic(a.out / "robustness.csv", table.to_csv())
     write_text_atomic(a.out / "robustness.json", json.dumps(summary, indent=1))
@@ -668,6 +871,26 @@ def main(argv: list[str] | None = None) -> int:
         f"robustness {a.engine} SP{a.specimen}: {summary['fragile']}/{summary['tests']} tests fragile "
         f"({100 * summary['fragile_share']:.1f} %); F1 {f1}"
     )
+    if a.guard is not None:
+        base_scores = pd.read_csv(a.out / "base" / "scores.csv").set_index("model")
+        rules = [r for r in RULES if r in base_scores.index]
+        prov = _provenance()
+        prov["tool"] = "python -m pbr_xval.validation.robustness " + " ".join(
+            str(x) for x in (argv if argv is not None else sys.argv[1:])
+        )
+        guard = guard_record(
+            table, engine=a.engine, specimen=a.specimen, scenario=str(a.scenario), subset=bool(a.tests),
+            variants={n: VARIANT_DESCRIPTIONS[n] for n in names if n != "base"},
+            best_rule_f1=float(base_scores.loc[rules, "f1"].max()) if rules else float("nan"), measured=prov,
+        )  # fmt: skip
+        if old:
+            guard = merge_guards(guard, *old)
+        write_text_atomic(a.guard, json.dumps(guard, indent=1) + "\n")
+        print(
+            f"guard {a.guard}: {len(guard['fragile_tests'])}/{len(guard['tests'])} fragile, F1 interval "
+            f"{guard['f1_range'][0]:.3f}-{guard['f1_range'][1]:.3f}, best rule {guard['best_rule_f1']:.3f}, "
+            f"beats the rules: {guard['beats_rules']}"
+        )
     return 0
 
 

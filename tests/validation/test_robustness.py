@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -185,3 +186,147 @@ def test_exits_by_chance_adaptive_stops_like_validate() -> None:
     x = exits_by_chance([(4, 4), (0, 4), (8, 16)], draws=500, seed=0)
     assert x.dtype.kind == "i" and x.min() >= 0 and x.max() <= 3
     assert 0 < x.mean() < 1.5
+
+
+def test_mass_variants_scale_the_scenarios_mass_by_round_off(tmp_path: Any) -> None:
+    """``mass``: ten runs, mass × (1 + j·1e-12) for j = −5 … 5 without 0 (that is base); a scenario
+    that gives a density instead has its density perturbed; one that gives neither is refused by name."""
+    from pbr_xval.validation.robustness import mass_variants
+
+    runs = mass_variants(REPO / "examples/validation/sp1.toml")  # [rock] mass = 353.8
+    assert list(runs) == [
+        "mass-5",
+        "mass-4",
+        "mass-3",
+        "mass-2",
+        "mass-1",
+        "mass+1",
+        "mass+2",
+        "mass+3",
+        "mass+4",
+        "mass+5",
+    ]
+    for name, keys in runs.items():
+        j = int(name[4:])
+        m = keys["rock"]["mass"]
+        assert m != 353.8 and abs(m / 353.8 - 1 - j * 1e-12) < 1e-15
+    dens = tmp_path / "d.toml"
+    dens.write_text('[rock]\nshape = "box"\ndensity = 2650.0\n')
+    assert mass_variants(dens)["mass+2"] == {"rock": {"density": 2650.0 * (1 + 2e-12)}}
+    bare = tmp_path / "b.toml"
+    bare.write_text('[rock]\nshape = "box"\n')
+    with pytest.raises(ValueError, match=r"b\.toml.*neither mass nor density"):
+        mass_variants(bare)
+
+
+def _guard_table() -> pd.DataFrame:
+    # tests 1-6, observed 1 1 1 0 0 0; base predicts 1 1 0 0 1 0; tilt flips test 3, mass+1 test 5
+    t = fragility_table(
+        {
+            "base": _oc6([1, 1, 0, 0, 1, 0]),
+            "tilt": _oc6([1, 1, 1, 0, 1, 0]),
+            "mass+1": _oc6([1, 1, 0, 0, 0, 0]),
+        },
+        "e",
+    )
+    return t
+
+
+def _oc6(pred: list[int]) -> pd.DataFrame:
+    return pd.DataFrame({"test": list("123456"), "observed": [1, 1, 1, 0, 0, 0], "pred_e": pred})
+
+
+def test_guard_record_pins_the_robust_tests_and_bounds_f1_by_the_fragile_ones() -> None:
+    from pbr_xval.validation.robustness import guard_record
+
+    g = guard_record(
+        _guard_table(), engine="e", specimen=1, scenario="s.toml", subset=False,
+        variants={"tilt": "x"}, best_rule_f1=0.5, measured={"date": "d"},
+    )  # fmt: skip
+    assert g["fragile_tests"] == ["3", "5"] and g["fragile_by_variant"] == {"tilt": ["3"], "mass+1": ["5"]}
+    assert g["robust_outcomes"] == {"1": 1, "2": 1, "4": 0, "6": 0}
+    # base: TP 2 (1, 2), FP 1 (5), FN 1 (3) → F1 = 4 / 6
+    assert g["confusion_base"] == {"tp": 2, "fp": 1, "fn": 1, "tn": 2}
+    assert g["f1"]["base"] == pytest.approx(4 / 6)
+    # robust TP 2; fragile 3 (toppled) and 5 (stood): worst 2·2/(4 + 1 + 1) = 2/3, best 2·3/6 = 1
+    assert g["f1_range"] == pytest.approx([2 / 3, 1.0])
+    assert g["beats_rules"] is True and g["measured"] == [{"date": "d"}]
+
+
+def test_merge_unites_fragile_tests_and_marks_robust_outcomes_that_moved_with_the_machine() -> None:
+    """A test fragile in any file is fragile; one robust in both but predicted differently moved with
+    the machine (``machine_flips``) and is fragile too; the F1 interval and ``beats_rules`` follow."""
+    from pbr_xval.validation.robustness import guard_record, merge_guards
+
+    new = guard_record(
+        _guard_table(), engine="e", specimen=1, scenario="s.toml", subset=False,
+        variants={"tilt": "x"}, best_rule_f1=0.7, measured={"date": "new"},
+    )  # fmt: skip
+    assert new["beats_rules"] is False  # worst case 2/3 < 0.7
+    old = {
+        "engine": "e", "specimen": 1, "tests": list("654321"), "fragile_tests": ["2"],
+        "robust_outcomes": {"1": 1, "3": 0, "4": 0, "5": 1, "6": 1}, "variants": {"haswell": "y"},
+        "measured": {"date": "old"},
+    }  # fmt: skip
+    m = merge_guards(new, old)
+    assert m["fragile_tests"] == ["2", "3", "5", "6"] and m["machine_flips"] == ["6"]
+    assert m["robust_outcomes"] == {"1": 1, "4": 0}
+    # robust TP 1; fragile 2, 3 toppled, 5, 6 stood: worst 2/(2 + 2 + 2) = 1/3, best 2·3/(6 + 0) = 1
+    assert m["f1_range"] == pytest.approx([1 / 3, 1.0])
+    assert m["variants"] == {"tilt": "x", "haswell": "y"}
+    assert m["measured"] == [{"date": "new"}, {"date": "old"}]
+    assert m["f1"] == new["f1"] and m["confusion_base"] == new["confusion_base"]
+    with pytest.raises(ValueError, match="specimen"):
+        merge_guards(new, {**old, "specimen": 2})
+    with pytest.raises(ValueError, match="same test set"):
+        merge_guards(new, {**old, "tests": list("12345")})
+
+
+def test_guard_and_mass_variants_through_the_command(tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--variants base,mass --guard G --merge OLD``: eleven validate runs (base and mass±1…5, each on
+    the scenario copied with its perturbed mass), then the guard file, merged; a bad merge file stops
+    the command before any run."""
+    import json
+    import subprocess
+    import tomllib
+
+    masses: dict[str, float] = {}
+    real_run = subprocess.run
+
+    def fake_run(cmd: list[str], check: bool, env: dict[str, str] | None = None, **kw: Any) -> Any:
+        if cmd[0] == "git":  # the provenance's commit
+            return subprocess.CompletedProcess(cmd, 0, stdout="abc1234\n")
+        if "validate" not in cmd:  # the provenance's machine description
+            return real_run(cmd, check=check, env=env, **kw)
+        out = Path(cmd[cmd.index("--out") + 1])
+        scn = Path(cmd[cmd.index("--scenario") + 1])
+        masses[out.name] = tomllib.loads(scn.read_text())["rock"]["mass"]
+        out.mkdir(parents=True, exist_ok=True)
+        pred = [1, 1, 0, 0, 1, 0] if out.name != "massplus3" else [1, 1, 0, 0, 0, 0]
+        _oc6(pred).rename(columns={"pred_e": "pred_mujoco"}).to_csv(out / "outcomes.csv", index=False)
+        pd.DataFrame(
+            {"model": ["mujoco", "PGA rule", "PGV rule", "PGA-and-PGV rule"], "f1": [0.66, 0.5, 0.6, 0.55]}
+        ).to_csv(out / "scores.csv", index=False)
+
+    monkeypatch.setattr(subprocess, "run", fake_run)
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps({"engine": "mujoco", "specimen": 1, "tests": list("123456"), "fragile_tests": ["1"],
+                               "robust_outcomes": {"2": 1, "3": 0, "4": 0, "5": 1, "6": 0}, "measured": {"date": "old"}}))  # fmt: skip
+    guard = tmp_path / "g.json"
+    argv = ["camp", "--scenario", str(REPO / "examples/validation/sp1.toml"), "--engine", "mujoco",
+            "--out", str(tmp_path / "o"), "--variants", "base,mass", "--guard", str(guard), "--merge", str(old)]  # fmt: skip
+    assert main(argv) == 0
+    assert len(masses) == 11 and masses["base"] == 353.8
+    assert masses["massminus5"] == 353.8 * (1 - 5e-12) and masses["massplus3"] == 353.8 * (1 + 3e-12)
+    g = json.loads(guard.read_text())
+    assert g["engine"] == "mujoco" and g["fragile_tests"] == ["1", "5"]
+    assert g["fragile_by_variant"]["mass+3"] == ["5"] and g["best_rule_f1"] == 0.6
+    assert set(g["variants"]) == {"mass"} and [m["date"] for m in g["measured"]][1] == "old"
+    assert "--variants base,mass" in g["measured"][0]["tool"] and g["measured"][0]["commit"] == "abc1234"
+    # a merge file of another engine: refused before any run
+    masses.clear()
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"engine": "pybullet", "specimen": 1}))
+    with pytest.raises(SystemExit):
+        main([*argv[:-1], str(other)])
+    assert masses == {}
