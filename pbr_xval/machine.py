@@ -10,30 +10,71 @@ __all__ = ["machine_info"]
 
 
 @functools.cache
-def _cpu_model() -> str:
+def _cpuinfo() -> dict[str, str]:
+    """The first processor's ``/proc/cpuinfo`` fields (empty where there is none)."""
+    out: dict[str, str] = {}
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                if not line.strip():
+                    break
+                key, _, value = line.partition(":")
+                out.setdefault(key.strip(), value.strip())
     except OSError:
         pass
-    return platform.processor() or ""
+    return out
+
+
+def _cpu_model() -> str:
+    return _cpuinfo().get("model name") or platform.processor() or ""
+
+
+def _simd(flags: str) -> str:
+    """The widest x86 vector extension among ``flags`` (``/proc/cpuinfo``'s flags line)."""
+    have = set(flags.split())
+    for name in ("avx512f", "avx2", "avx", "sse4_2"):
+        if name in have:
+            return name
+    return "unknown" if not have else "none"
+
+
+@functools.cache
+def _blas_kernels() -> str:
+    """The kernels numpy's OpenBLAS runs in this process (threadpoolctl's ``architecture``: set at
+    load from the CPU, or from ``OPENBLAS_CORETYPE``), "" when not known."""
+    try:
+        import numpy  # noqa: F401  (loads the BLAS whose kernels are asked for)
+        from threadpoolctl import threadpool_info  # type: ignore[import-untyped]
+    except ImportError:
+        return ""
+    for lib in threadpool_info():
+        if lib.get("internal_api") == "openblas":
+            return str(lib.get("architecture") or "")
+    return ""
 
 
 def machine_info() -> dict[str, str]:
     """Machine facts recorded with every result.
 
-    ``cpu_model`` and ``blas_coretype`` (``OPENBLAS_CORETYPE`` when set, else "auto": OpenBLAS
-    picks its kernels by CPU) matter because results can move with the CPU: a chaotic rocking
-    run can flip on a last-bit difference (docs/validation.md, "Machine dependence").
+    ``cpu_model``, ``cpu_family`` / ``cpu_model_number`` (``/proc/cpuinfo``: a cloud VM often
+    names only the vendor's line, "AMD EPYC", for CPUs of different generations — family 25 is
+    Zen 3/4, 26 Zen 5), ``simd`` (the widest vector extension: avx512f, avx2, …),
+    ``blas_coretype`` (``OPENBLAS_CORETYPE`` when set, else "auto": OpenBLAS picks its kernels by
+    CPU) and ``blas_kernels`` (the kernels numpy's OpenBLAS actually runs) matter because results
+    can move with the CPU: a chaotic rocking run can flip on a last-bit difference
+    (docs/validation.md, "Machine dependence").
     """
+    info = _cpuinfo()
     return {
         "python": platform.python_version(),
         "platform": platform.platform(),
         "machine": platform.machine(),
         "processor": platform.processor() or "",
         "cpu_model": _cpu_model(),
+        "cpu_family": info.get("cpu family", ""),
+        "cpu_model_number": info.get("model", ""),
+        "simd": _simd(info.get("flags", "")) if info else "",
         "blas_coretype": os.environ.get("OPENBLAS_CORETYPE", "auto"),
+        "blas_kernels": _blas_kernels(),
         "cpu_count": str(os.cpu_count()),
     }

@@ -1,0 +1,37 @@
+"""pbr_xval.machine: the machine facts every result records."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from pbr_xval.machine import _simd, machine_info
+
+
+def test_simd_names_the_widest_vector_extension() -> None:
+    assert _simd("fpu sse4_2 avx avx2 avx512f avx512bw") == "avx512f"
+    assert _simd("fpu sse4_2 avx avx2") == "avx2"
+    assert _simd("fpu sse4_2 avx") == "avx"
+    assert _simd("fpu sse2") == "none"
+    assert _simd("") == "unknown"
+
+
+@pytest.mark.skipif(not os.path.isfile("/proc/cpuinfo"), reason="needs /proc/cpuinfo")
+def test_machine_info_records_the_cpu_generation_and_the_blas_kernels_in_use() -> None:
+    """A VM may call Zen 4 and Zen 5 both "AMD EPYC": the family number tells them apart. The BLAS
+    kernels recorded are those OpenBLAS runs, which OPENBLAS_CORETYPE overrides (a fresh process,
+    since OpenBLAS reads it once, at load)."""
+    info = machine_info()
+    with open("/proc/cpuinfo", encoding="utf-8") as f:
+        fam = next(ln.split(":", 1)[1].strip() for ln in f if ln.startswith("cpu family"))
+    assert info["cpu_family"] == fam and info["cpu_model_number"].isdigit()
+    code = "from pbr_xval.machine import machine_info as m; i = m(); print(i['blas_coretype'], i['blas_kernels'])"
+    env = {**os.environ, "OPENBLAS_CORETYPE": "Sandybridge"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    coretype, kernels = out.stdout.split()
+    assert coretype == "Sandybridge"
+    if kernels:  # numpy built on OpenBLAS (the wheels are): the override took effect
+        assert kernels.lower() == "sandybridge"
