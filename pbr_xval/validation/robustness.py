@@ -111,7 +111,7 @@ VARIANT_DESCRIPTIONS: dict[str, str] = {
     "dt+1%": "the engine's time step x 1.01",
     "dt-1%": "the engine's time step x 0.99",
     "haswell": "OPENBLAS_CORETYPE=Haswell and NUMBA_CPU_NAME=haswell: the BLAS kernels of an AVX2 CPU "
-    "without AVX-512 (Intel Haswell-Skylake client, AMD Zen 1-3; AMD Zen 5 under OpenBLAS 0.3.31) and "
+    "without AVX-512 (Intel Haswell-Skylake client, AMD Zen 1-3; any machine whose environment sets it) and "
     "numba's code for it (the reference solver's kernel)",
     "sandybridge": "OPENBLAS_CORETYPE=Sandybridge and NUMBA_CPU_NAME=sandybridge: an AVX-only CPU's kernels",
     "skylakex": "OPENBLAS_CORETYPE=SkylakeX and NUMBA_CPU_NAME=skylake-avx512: the BLAS kernels of an "
@@ -123,9 +123,9 @@ VARIANT_DESCRIPTIONS: dict[str, str] = {
 #: variants that run the committed campaign in a process whose OpenBLAS uses another CPU's kernels
 #: (``OPENBLAS_CORETYPE``, read once when the library loads): the engines' scene set-up (the
 #: principal axes from ``eigh``, rotations by matrix products) rounds differently on an AVX2 CPU
-#: (Haswell kernels: Intel Haswell–Skylake client, AMD Zen 1–3 — and AMD Zen 5 under OpenBLAS
-#: 0.3.31, which does not take it for an AVX-512 CPU), an AVX-only one (Sandybridge) or an AVX-512
-#: one (SkylakeX kernels: Intel Skylake-SP and later servers, AMD Zen 4), so what CI sees on
+#: (Haswell kernels: Intel Haswell–Skylake client, AMD Zen 1–3 — and any machine whose environment
+#: sets OPENBLAS_CORETYPE=Haswell, as the project's Zen 5 VM does), an AVX-only one (Sandybridge) or
+#: an AVX-512 one (SkylakeX kernels: Intel Skylake-SP and later servers, AMD Zen 4 and Zen 5), so what CI sees on
 #: another machine is run here. ``skylakex`` needs an AVX-512 CPU to run on.
 KERNEL_VARIANTS: dict[str, str] = {"haswell": "Haswell", "sandybridge": "Sandybridge", "skylakex": "SkylakeX"}
 

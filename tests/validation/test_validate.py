@@ -123,12 +123,13 @@ def test_documented_f1_against_the_experiments(case: str, tmp_path: Path) -> Non
     against the lab's observed outcomes, guarded for a reason rather than by luck.
 
     ``examples/validation/robustness/<engine>_sp<N>.json`` (written by
-    ``python -m pbr_xval.validation.robustness``) lists the tests whose outcome flipped under a
+    ``python -m pbr_xval.validation.robustness … --guard FILE --merge FILE``, on every machine it was
+    measured on) lists the tests whose outcome flipped under a
     perturbation far below physical uncertainty (1e-9 rad of initial tilt; for some campaigns also
-    dt × 1.01), under another CPU's arithmetic (the run with OpenBLAS's Haswell kernels, and for the
-    reference solver numba compiling for Haswell: what an AVX2 machine without AVX-512 computes; for the
-    reference also the SkylakeX build, an AVX-512 machine's) or in the 11-run mass round-off ensembles
-    (mass × (1 + j·1e-12): the tests that toppled in some runs only; ``variants.mass`` in each file):
+    dt × 1.01), under another CPU's arithmetic (OpenBLAS's Haswell kernels and numba compiling for
+    Haswell: what an AVX2 machine without AVX-512 computes; the SkylakeX build: an AVX-512 machine's)
+    or in the 11-run mass round-off ensembles (mass × (1 + j·1e-12): the tests that toppled in some
+    runs only), or whose outcome differed between the machines measured:
     those are *fragile*, their outcome on another machine a
     coin flip. Every other
     (*robust*) test must give the outcome measured there, exactly; the F1 must lie in the interval
