@@ -115,7 +115,7 @@ VARIANT_DESCRIPTIONS: dict[str, str] = {
     "numba's code for it (the reference solver's kernel)",
     "sandybridge": "OPENBLAS_CORETYPE=Sandybridge and NUMBA_CPU_NAME=sandybridge: an AVX-only CPU's kernels",
     "skylakex": "OPENBLAS_CORETYPE=SkylakeX and NUMBA_CPU_NAME=skylake-avx512: the BLAS kernels of an "
-    "AVX-512 CPU (Intel Skylake-SP and later servers, AMD Zen 4) and numba's code for it",
+    "AVX-512 CPU (Intel Skylake-SP and later servers, AMD Zen 4 and Zen 5) and numba's code for it",
     "mass": "rock.mass (or rock.density) x (1 + j 1e-12), j = -5..5 (runs mass-5 .. mass+5; j = 0 is base): "
     "a test that toppled in some but not all 11 runs is fragile",
 }
@@ -803,6 +803,10 @@ def main(argv: list[str] | None = None) -> int:
 
     names = [v.strip() for v in a.variants.split(",") if v.strip()]
     if a.ensemble:
+        if a.guard is not None or a.merge:
+            p.error(
+                "--guard and --merge write deterministic guard files; --ensemble writes ensemble_robustness.json"
+            )
         unknown = sorted(set(names) - set(ENSEMBLE_VARIANTS))
         if unknown or not names or names[0] != "base":
             p.error(f"--variants: {unknown or 'base not first'}: expected 'base' first, then any of "

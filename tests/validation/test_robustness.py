@@ -330,3 +330,6 @@ def test_guard_and_mass_variants_through_the_command(tmp_path: Any, monkeypatch:
     with pytest.raises(SystemExit):
         main([*argv[:-1], str(other)])
     assert masses == {}
+    # --guard / --merge belong to the deterministic mode
+    with pytest.raises(SystemExit):
+        main(["camp", "--scenario", "s.toml", "--ensemble", "--out", "o", "--guard", str(guard)])
