@@ -333,3 +333,27 @@ def test_guard_and_mass_variants_through_the_command(tmp_path: Any, monkeypatch:
     # --guard / --merge belong to the deterministic mode
     with pytest.raises(SystemExit):
         main(["camp", "--scenario", "s.toml", "--ensemble", "--out", "o", "--guard", str(guard)])
+
+
+@pytest.mark.parametrize(
+    "path", sorted((REPO / "examples/validation/robustness").glob("*_sp?.json")), ids=lambda p: p.stem
+)
+def test_committed_guard_files_are_what_the_tool_writes(path: Path) -> None:
+    """Each committed F1 guard file is the tool's output (``--guard``, merged over machines), consistent
+    in itself: every test either fragile or robust, never both; the F1 interval and ``beats_rules``
+    recomputed from its own observed outcomes; the command that wrote it recorded. (The slow
+    ``test_documented_f1_against_the_experiments`` then checks it against a fresh campaign.)"""
+    import json
+
+    g = json.loads(path.read_text())
+    tests, fragile, robust = set(g["tests"]), set(g["fragile_tests"]), set(g["robust_outcomes"])
+    assert len(g["tests"]) == len(tests) and fragile | robust == tests and not fragile & robust
+    assert set(g["observed"]) == tests and set(g["observed"].values()) <= {0, 1}
+    assert set(g["machine_flips"]) <= fragile
+    for variant, flipped in g["fragile_by_variant"].items():
+        assert set(flipped) <= fragile, variant
+    lo, hi = f1_range(g["observed"], g["robust_outcomes"], g["fragile_tests"])
+    assert g["f1_range"] == pytest.approx([lo, hi], abs=1e-12)
+    assert g["f1_range"][0] - 1e-12 <= g["f1"]["base"] <= g["f1_range"][1] + 1e-12
+    assert g["beats_rules"] == (lo > g["best_rule_f1"])
+    assert "--guard" in g["measured"][0]["tool"] and g["engine"] in path.stem
