@@ -253,16 +253,6 @@ def f1_range(observed: dict[str, int], robust: dict[str, int], fragile: list[str
 RULES = ("PGA rule", "PGV rule", "PGA-and-PGV rule")
 
 
-def _confusion(observed: dict[str, int], pred: dict[str, int]) -> dict[str, int]:
-    pairs = [(observed[t], int(pred[t])) for t in observed]
-    return {
-        "tp": sum(1 for o, p in pairs if o == 1 and p == 1),
-        "fp": sum(1 for o, p in pairs if o == 0 and p == 1),
-        "fn": sum(1 for o, p in pairs if o == 1 and p == 0),
-        "tn": sum(1 for o, p in pairs if o == 0 and p == 0),
-    }
-
-
 def guard_record(
     table: pd.DataFrame,
     *,
@@ -285,7 +275,10 @@ def guard_record(
     observed = {str(t): int(o) for t, o in table["observed"].items()}
     fragile = [str(t) for t in table.index[table["fragile"]]]
     robust = {str(t): int(v) for t, v in table.loc[~table["fragile"], "base"].items()}
+    from pbr_xval.validation.metrics import score
+
     lo, hi = f1_range(observed, robust, fragile)
+    base = score(table["observed"].to_numpy() == 1, table["base"].to_numpy() == 1)
     return {
         "engine": engine,
         "specimen": int(specimen),
@@ -302,7 +295,7 @@ def guard_record(
         },
         "f1": {c: _f1(table["observed"], table[c]) for c in cols},
         "f1_range": [lo, hi],
-        "confusion_base": _confusion(observed, {str(t): int(v) for t, v in table["base"].items()}),
+        "confusion_base": {"tp": base.tp, "fp": base.fp, "fn": base.fn, "tn": base.tn},
         "best_rule_f1": float(best_rule_f1),
         "beats_rules": bool(lo > best_rule_f1),
         "robust_outcomes": robust,
