@@ -56,6 +56,10 @@ value it took under a variant (:func:`ensemble_score_range`)::
         --variants base,tilt,dt+1% --out runs/robust_sp1_ensemble
 
 writes ``ensemble_robustness.csv`` (per test × variant: k, n, P) and ``ensemble_robustness.json``.
+``--compare RECORD.json`` (repeatable; its tests unless ``--tests`` is given, the same ensemble
+settings) checks this run's P per test against a record measured on another machine
+(:func:`compare_ensemble_records`): the tests outside the record's base Jeffreys 95 % interval, and
+which of the record's variants this machine reproduced count for count.
 """
 
 from __future__ import annotations
@@ -81,6 +85,9 @@ __all__ = [
     "ENSEMBLE_VARIANTS",
     "KERNEL_VARIANTS",
     "VARIANTS",
+    "check_comparable",
+    "check_mergeable",
+    "compare_ensemble_records",
     "ensemble_score_range",
     "ensemble_summary",
     "ensemble_variant_uncertainty",
@@ -303,6 +310,23 @@ def guard_record(
     }
 
 
+def check_mergeable(
+    old: dict[str, Any], engine: str, specimen: int, tests: Sequence[str] | None = None
+) -> None:
+    """Raise ``ValueError`` (one line) unless the guard file ``old`` is of ``engine``, ``specimen``
+    and (when given) the same test set: what :func:`merge_guards` unites, checked by the command
+    before any simulation runs."""
+    if old.get("engine") != engine or int(old.get("specimen", -1)) != int(specimen):
+        raise ValueError(
+            f"engine {old.get('engine')!r}, specimen {old.get('specimen')!r} in the old guard; expected "
+            f"{engine!r}, {specimen}"
+        )
+    if tests is not None and sorted(str(t) for t in old.get("tests", [])) != sorted(str(t) for t in tests):
+        raise ValueError(
+            f"the old guard has {len(old.get('tests', []))} tests, this run {len(tests)}: expected the same test set"
+        )
+
+
 def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
     """``new`` (:func:`guard_record`) united with guard files measured elsewhere (``old``: another
     machine, other variants, earlier code of the same results).
@@ -319,14 +343,7 @@ def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
     variants = dict(new["variants"])
     measured = list(new["measured"])
     for o in old:
-        for k in ("engine", "specimen"):
-            if o[k] != new[k]:
-                raise ValueError(f"merge: {k} {o[k]!r} in the old guard, {new[k]!r} in this run")
-        if sorted(o["tests"]) != sorted(new["tests"]):
-            raise ValueError(
-                f"merge: the old guard has {len(o['tests'])} tests, this run {len(new['tests'])}: "
-                "expected the same test set"
-            )
+        check_mergeable(o, new["engine"], int(new["specimen"]), new["tests"])
         fragile |= set(o["fragile_tests"])
         machine_flips |= set(o.get("machine_flips", []))
         for t, v in o["robust_outcomes"].items():
@@ -606,6 +623,64 @@ def ensemble_summary(
     return out
 
 
+def check_comparable(
+    record: dict[str, Any], specimen: int, ensemble: dict[str, Any], tests: Sequence[str] | None
+) -> None:
+    """Raise ``ValueError`` (one line) unless the ensemble robustness record ``record`` (an
+    ``ensemble_robustness.json``) is of ``specimen``, with the same ensemble settings (``members``,
+    ``half_width``, ``batch``) and, when ``tests`` is given, the same tests — what
+    :func:`compare_ensemble_records` compares, checked before any simulation runs."""
+    if int(record.get("specimen", -1)) != int(specimen):
+        raise ValueError(f"specimen {record.get('specimen')!r} in the record; expected {specimen}")
+    rec_ens = record.get("ensemble", {})
+    for k in ("members", "half_width", "batch"):
+        if rec_ens.get(k) != ensemble.get(k):
+            raise ValueError(
+                f"ensemble {k} {rec_ens.get(k)!r} in the record, {ensemble.get(k)!r} in this run"
+            )
+    if tests is not None and sorted(str(t) for t in record.get("tests", [])) != sorted(str(t) for t in tests):
+        raise ValueError(
+            f"the record has {len(record.get('tests', []))} tests, this run {len(tests)}: expected the same tests"
+        )
+
+
+def compare_ensemble_records(new: dict[str, Any], record: dict[str, Any]) -> dict[str, Any]:
+    """This run's base ensemble (``new``: :func:`ensemble_summary`) against a record measured elsewhere
+    (``record``: an ``ensemble_robustness.json`` of another machine, or of earlier code).
+
+    Issue 22's "an ensemble's P(topple) is the same on any machine within its stated interval",
+    checked on a real second machine: the tests whose P here lies outside the record's base Jeffreys
+    95 % interval, the largest |ΔP| against the record's base, and per variant of the record the tests
+    whose k of n here equals that variant's (a record's ``haswell`` variant imitates another CPU's
+    BLAS; equal counts on every test say that the imitation was this machine). Returns a dict with
+    ``measured`` (the record's provenance), ``outside_base_interval``, ``max_abs_dp`` and
+    ``same_counts_as`` (variant → tests). Raises ``ValueError`` when the test sets differ.
+    """
+    tests = [str(t) for t in new["tests"]]
+    if sorted(tests) != sorted(str(t) for t in record["tests"]):
+        raise ValueError(
+            f"the record has {len(record['tests'])} tests, this run {len(tests)}: expected the same tests"
+        )
+    outside, max_dp = [], 0.0
+    same: dict[str, list[str]] = {v: [] for v in record["variants_run"]}
+    for t in tests:
+        here = new["per_test"][t]["base"]
+        there = record["per_test"][t]
+        lo, hi = there["jeffreys95"]
+        if not lo <= here["p"] <= hi:
+            outside.append(t)
+        max_dp = max(max_dp, abs(here["p"] - there["base"]["p"]))
+        for v in same:
+            if (here["k"], here["n"]) == (there[v]["k"], there[v]["n"]):
+                same[v].append(t)
+    return {
+        "measured": record.get("measured", {}),
+        "outside_base_interval": outside,
+        "max_abs_dp": max_dp,
+        "same_counts_as": same,
+    }
+
+
 def exits_by_chance(
     counts: Sequence[tuple[int, int]],
     *,
@@ -712,8 +787,15 @@ def _haswell_base(a: argparse.Namespace, folder: Path) -> None:
     subprocess.run(cmd, check=True, env=kernel_env("haswell"))
 
 
-def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
-    """``--ensemble``: every variant's ensemble, then ``ensemble_robustness.{csv,json}``."""
+def _ensemble_main(
+    a: argparse.Namespace,
+    names: list[str],
+    records: Sequence[tuple[Path, dict[str, Any]]] = (),
+    tool: str | None = None,
+) -> int:
+    """``--ensemble``: every variant's ensemble, then ``ensemble_robustness.{csv,json}``; with
+    ``records`` (``--compare``: path, record), each compared with this run's base
+    (:func:`compare_ensemble_records`, under ``compared``)."""
     import time
 
     tests = [t.strip() for t in a.tests.split(",") if t.strip()] if a.tests else None
@@ -748,8 +830,12 @@ def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
         ),
         # wall times of this invocation (a run resumed from its store costs nothing): not a cost figure
         "wall_s_this_invocation": walls,
-        "measured": _provenance(),
+        "measured": {**_provenance(), **({"tool": tool} if tool else {})},
     }
+    if records:
+        summary["compared"] = [
+            {"record": str(f), **compare_ensemble_records(summary, rec)} for f, rec in records
+        ]
     table = pd.concat([r.assign(variant=v) for v, r in results.items()], ignore_index=True)
     write_text_atomic(a.out / "ensemble_robustness.csv", table.to_csv(index=False))
     write_text_atomic(a.out / "ensemble_robustness.json", json.dumps(summary, indent=1))
@@ -760,6 +846,18 @@ def _ensemble_main(a: argparse.Namespace, names: list[str]) -> int:
         )
     for v, s in summary["scores"].items():
         print(f"robustness ensemble SP{a.specimen} {v}: Brier {s['brier']:.4f}  F1 {s['f1']:.4f}")
+    for c in summary.get("compared", []):
+        m = c["measured"].get("machine", {})
+        where = ", ".join(
+            str(x) for x in (m.get("cpu_model"), m.get("cpu_family") and f"family {m['cpu_family']}",
+                             c["measured"].get("date"), c["measured"].get("commit")) if x
+        )  # fmt: skip
+        same = "; ".join(f"{v} {len(ts)}/{len(order)}" for v, ts in c["same_counts_as"].items())
+        print(
+            f"robustness ensemble SP{a.specimen} base vs {c['record']} ({where}): "
+            f"{len(c['outside_base_interval'])}/{len(order)} tests outside its base Jeffreys 95 % interval, "
+            f"max |ΔP| {c['max_abs_dp']:.3f}; k of n equal to its {same}"
+        )
     print(
         f"Brier range {summary['brier_range'][0]:.4f}–{summary['brier_range'][1]:.4f}, F1 range "
         f"{summary['f1_range'][0]:.4f}–{summary['f1_range'][1]:.4f}; best baseline {summary['best_baseline']} "
@@ -791,6 +889,13 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="a guard file measured elsewhere to unite with --guard's",
     )
+    p.add_argument(
+        "--compare",
+        action="append",
+        type=Path,
+        default=None,
+        help="--ensemble: an ensemble_robustness.json measured elsewhere; this run's P per test against its intervals",
+    )
     a = p.parse_args(argv)
     from pbr_xval.engine import get_engine
 
@@ -804,7 +909,29 @@ def main(argv: list[str] | None = None) -> int:
         if unknown or not names or names[0] != "base":
             p.error(f"--variants: {unknown or 'base not first'}: expected 'base' first, then any of "
                     f"{', '.join(ENSEMBLE_VARIANTS)}")  # fmt: skip
-        return _ensemble_main(a, names)
+        # every record to compare with, checked before any simulation; without --tests, its tests
+        records: list[tuple[Path, dict[str, Any]]] = []
+        for f in a.compare or []:
+            try:
+                rec = json.loads(f.read_text())
+                tests = [t.strip() for t in a.tests.split(",") if t.strip()] if a.tests else None
+                check_comparable(
+                    rec,
+                    a.specimen,
+                    {"members": a.members, "half_width": a.half_width, "batch": a.batch},
+                    tests,
+                )
+            except (OSError, ValueError, KeyError, TypeError) as exc:
+                p.error(f"--compare {f}: {exc}")
+            if not a.tests:
+                a.tests = ",".join(str(t) for t in rec["tests"])
+            records.append((f, rec))
+        tool = "python -m pbr_xval.validation.robustness " + " ".join(
+            str(x) for x in (argv if argv is not None else sys.argv[1:])
+        )
+        return _ensemble_main(a, names, records, tool)
+    if a.compare:
+        p.error("--compare compares ensemble records (--ensemble); deterministic runs use --merge")
     if a.engine is None:
         p.error("--engine is required (or --ensemble)")
     unknown = sorted(set(names) - set(VARIANTS) - {"mass"})
@@ -833,11 +960,10 @@ def main(argv: list[str] | None = None) -> int:
             g = json.loads(Path(f).read_text())
         except (OSError, ValueError) as exc:
             p.error(f"--merge {f}: {exc}")
-        if g.get("engine") != a.engine or int(g.get("specimen", -1)) != a.specimen:
-            p.error(
-                f"--merge {f}: engine {g.get('engine')!r}, specimen {g.get('specimen')!r}; expected "
-                f"{a.engine!r}, {a.specimen}"
-            )
+        try:
+            check_mergeable(g, a.engine, a.specimen)
+        except ValueError as exc:
+            p.error(f"--merge {f}: {exc}")
         old.append(g)
     envs = {name: kernel_env(name) for name in names if name in KERNEL_VARIANTS}
     outcomes: dict[str, pd.DataFrame] = {}

@@ -357,3 +357,127 @@ def test_committed_guard_files_are_what_the_tool_writes(path: Path) -> None:
     assert g["f1_range"][0] - 1e-12 <= g["f1"]["base"] <= g["f1_range"][1] + 1e-12
     assert g["beats_rules"] == (lo > g["best_rule_f1"])
     assert "--guard" in g["measured"][0]["tool"] and g["engine"] in path.stem
+
+
+def _ens_record(counts: dict[str, dict[str, tuple[int, int]]], specimen: int = 1) -> dict[str, Any]:
+    """A minimal ``ensemble_robustness.json``: per variant, per test (k, n); P and the base interval
+    from them as :func:`ensemble_summary` computes them."""
+    from pbr_xval.uncertainty import jeffreys_interval, p_topple
+
+    tests = list(counts["base"])
+    per_test = {
+        t: {
+            "jeffreys95": list(jeffreys_interval(*counts["base"][t])),
+            **{v: {"k": c[t][0], "n": c[t][1], "p": p_topple(*c[t])} for v, c in counts.items()},
+        }
+        for t in tests
+    }
+    return {
+        "specimen": specimen, "tests": tests, "variants_run": list(counts), "per_test": per_test,
+        "ensemble": {"members": 16, "half_width": 0.1, "batch": 4},
+        "measured": {"date": "2026-11-26", "commit": "abc", "machine": {"cpu_model": "X", "cpu_family": 25}},
+    }  # fmt: skip
+
+
+def test_compare_ensemble_records_counts_interval_exits_and_the_variants_reproduced() -> None:
+    """A test whose P here leaves the record's base Jeffreys interval is named; a variant of the
+    record whose k of n this run reproduced on a test lists it; different test sets are refused."""
+    from pbr_xval.uncertainty import jeffreys_interval, p_topple
+    from pbr_xval.validation.robustness import compare_ensemble_records
+
+    rec = _ens_record(
+        {
+            "base": {"1": (0, 4), "2": (8, 16), "3": (4, 4)},
+            "haswell": {"1": (0, 4), "2": (9, 16), "3": (4, 4)},
+        }
+    )
+    # here: test 1 as both variants, test 2 as the record's haswell run, test 3 toppled 0 of 4
+    new = _ens_record({"base": {"1": (0, 4), "2": (9, 16), "3": (0, 4)}})
+    c = compare_ensemble_records(new, rec)
+    lo, hi = jeffreys_interval(4, 4)
+    assert not lo <= p_topple(0, 4) <= hi  # 0.1 against [0.55, 1]: the exit is real
+    assert c["outside_base_interval"] == ["3"]
+    assert c["same_counts_as"] == {"base": ["1"], "haswell": ["1", "2"]}
+    assert c["max_abs_dp"] == pytest.approx(p_topple(4, 4) - p_topple(0, 4))
+    assert c["measured"]["machine"]["cpu_family"] == 25
+    with pytest.raises(ValueError, match="same tests"):
+        compare_ensemble_records(_ens_record({"base": {"1": (0, 4)}}), rec)
+
+
+def test_compare_through_the_command_runs_the_records_tests_and_refuses_other_settings(
+    tmp_path: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--ensemble --compare R.json``: without ``--tests`` the record's tests run; the comparison is
+    written under ``compared``; a record of other ensemble settings or another specimen stops the
+    command before any member runs."""
+    import json
+
+    import pbr_xval.validation.robustness as rob
+    from pbr_xval.uncertainty import p_topple
+
+    ran: list[list[str] | None] = []
+
+    def fake_run(
+        campaign: Path, specimen: int, scn: Path, folder: Path, *, tests: Any = None, **kw: Any
+    ) -> Any:
+        ran.append(tests)
+        k = {"15": 0, "42": 3}
+        rows = pd.DataFrame(
+            [{"test": t, "observed": 1, "pga_m_s2": 1.0, "pgv_m_s": 0.1, "k": k[t], "n": 4,
+              "p": p_topple(k[t], 4), "failed": 0} for t in tests]
+        )  # fmt: skip
+        members = pd.DataFrame(
+            [{"test": t, "member": j, "toppled": int(j < k[t])} for t in tests for j in range(4)]
+        )
+        return rows, members
+
+    monkeypatch.setattr(rob, "run_ensemble_variant", fake_run)
+    monkeypatch.setattr(rob, "logistic_out_of_fold", lambda *a, **k: {"logistic(lnPGV)": [0.5, 0.5]})
+    rec = tmp_path / "rec.json"
+    rec.write_text(json.dumps(_ens_record({"base": {"15": (0, 4), "42": (4, 4)}})))
+    out = tmp_path / "o"
+    argv = ["camp", "--scenario", str(REPO / "examples/validation/sp1.toml"), "--ensemble", "--members", "16",
+            "--half-width", "0.1", "--variants", "base", "--out", str(out), "--compare", str(rec)]  # fmt: skip
+    assert main(argv) == 0
+    assert ran == [["15", "42"]]
+    c = json.loads((out / "ensemble_robustness.json").read_text())["compared"]
+    assert c[0]["record"] == str(rec) and c[0]["same_counts_as"] == {"base": ["15"]}
+    assert c[0]["outside_base_interval"] == []  # 3 of 4 (P 0.7) lies in 4 of 4's interval [0.55, 1]
+    ran.clear()
+    for bad in ({"members": 8}, {"specimen": 2}):
+        r = _ens_record({"base": {"15": (0, 4), "42": (4, 4)}})
+        r["ensemble"].update(bad) if "members" in bad else r.update(bad)
+        rec.write_text(json.dumps(r))
+        with pytest.raises(SystemExit):
+            main(argv)
+    assert ran == []
+    with pytest.raises(SystemExit):  # --compare belongs to the ensemble mode
+        main(["camp", "--scenario", "s.toml", "--engine", "mujoco", "--out", "o", "--compare", str(rec)])
+
+
+@pytest.mark.parametrize(
+    "path",
+    sorted(
+        p
+        for p in (REPO / "examples/validation/robustness").glob("ensemble_sp?_*.json")
+        if "compared" in p.read_text()
+    ),
+    ids=lambda p: p.stem,
+)
+def test_committed_machine_comparisons_recompute_from_the_two_records(path: Path) -> None:
+    """Each committed ensemble record measured on another machine (``--compare``) holds the comparison
+    that :func:`compare_ensemble_records` computes from its own per-test counts and the record it names
+    (docs/validation.md, "On a second real CPU"): no test outside that record's base interval."""
+    import json
+
+    from pbr_xval.validation.robustness import compare_ensemble_records
+
+    rec = json.loads(path.read_text())
+    for c in rec["compared"]:
+        other = json.loads((REPO / c["record"]).read_text())
+        again = compare_ensemble_records(rec, other)
+        assert c["measured"] == again["measured"] and c["same_counts_as"] == again["same_counts_as"]
+        assert c["outside_base_interval"] == again["outside_base_interval"]
+        assert c["max_abs_dp"] == pytest.approx(again["max_abs_dp"], abs=1e-12)
+        assert c["outside_base_interval"] == []
+    assert "--compare" in rec["measured"]["tool"] and rec["measured"]["machine"]["cpu_family"]
