@@ -43,7 +43,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from pbr_xval.machine import machine_info
+from pbr_xval.machine import describe_machine
 
 print = functools.partial(print, flush=True)
 
@@ -127,7 +127,7 @@ def main() -> None:
         tests = all_tests
     n_full = len(all_tests)
     print(
-        f"machine: {machine_info()['cpu_model'] or 'unknown CPU'}, {os.cpu_count()} logical CPUs; {a.workers} workers; "
+        f"machine: {describe_machine()}; {a.workers} workers; "
         f"load average at start {tuple(round(x, 2) for x in os.getloadavg())}"
     )
     print(

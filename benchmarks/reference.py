@@ -54,6 +54,7 @@ import numpy as np  # noqa: E402
 
 from pbr_xval import conformance as conf  # noqa: E402
 from pbr_xval.engine import EngineNotAvailable, get_engine  # noqa: E402
+from pbr_xval.machine import describe_machine  # noqa: E402
 from pbr_xval.runner import run_scene  # noqa: E402
 from pbr_xval.scene import compile_scene  # noqa: E402
 
@@ -252,9 +253,7 @@ def main() -> None:
     ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile subprocess")
     ap.add_argument("--quick", action="store_true", help="fewer steps in the node-growth sweep")
     args = ap.parse_args()
-    print(
-        f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)"
-    )
+    print(f"(machine: {describe_machine()}; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)")
     jit_cost(not args.no_cold)
     h = housner_speed()
     sp1 = sp1_speed()

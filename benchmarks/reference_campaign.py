@@ -31,6 +31,7 @@ from pathlib import Path
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
+from pbr_xval.machine import describe_machine  # noqa: E402
 from pbr_xval.runner import run_scene  # noqa: E402
 from pbr_xval.scenario import load_scenario  # noqa: E402
 from pbr_xval.scene import compile_scene  # noqa: E402
@@ -139,9 +140,7 @@ def main() -> None:
     )
     args = ap.parse_args()
     only = args.tests.split(",") if args.tests else None
-    print(
-        f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)"
-    )
+    print(f"(machine: {describe_machine()}; load average at start {os.getloadavg()}; OPENBLAS_NUM_THREADS=1)")
     with tempfile.TemporaryDirectory() as tmp:
         for sp in args.specimen:
             try:

@@ -124,7 +124,9 @@ def main() -> None:
         "(numba internals; counting their instructions slows the run)",
     )
     args = ap.parse_args()
-    print(f"(machine: {os.cpu_count()} CPUs; load average at start {os.getloadavg()})")
+    from pbr_xval.machine import describe_machine
+
+    print(f"(machine: {describe_machine()}; load average at start {os.getloadavg()})")
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
         subprocess.run(

@@ -141,7 +141,9 @@ def main() -> None:
     )
     args = ap.parse_args()
     skip = set(args.skip.split(",")) - {""}
-    print(f"(machine: {os.cpu_count()} CPUs, load average at start {os.getloadavg()})", flush=True)
+    from pbr_xval.machine import describe_machine
+
+    print(f"(machine: {describe_machine()}, load average at start {os.getloadavg()})", flush=True)
     parts = {
         "engines": engines_part,
         "reference": lambda: reference_part(args.quick),

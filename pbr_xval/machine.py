@@ -6,7 +6,7 @@ import functools
 import os
 import platform
 
-__all__ = ["machine_info"]
+__all__ = ["describe_machine", "machine_info"]
 
 
 @functools.cache
@@ -78,3 +78,20 @@ def machine_info() -> dict[str, str]:
         "blas_kernels": _blas_kernels(),
         "cpu_count": str(os.cpu_count()),
     }
+
+
+def describe_machine(info: dict[str, str] | None = None) -> str:
+    """One line naming the CPU beside a machine-dependent figure (a benchmark's header): model,
+    family and model number, vector extension, the BLAS kernels in use and the logical CPUs, from
+    :func:`machine_info` (or ``info``), e.g. "AMD EPYC (family 26, model 2; avx512f; OpenBLAS
+    Haswell kernels, OPENBLAS_CORETYPE=Haswell), 2 logical CPUs"."""
+    m = machine_info() if info is None else info
+    gen = ", ".join(
+        x for x in (m.get("cpu_family") and f"family {m['cpu_family']}",
+                    m.get("cpu_model_number") and f"model {m['cpu_model_number']}") if x
+    )  # fmt: skip
+    blas = f"OpenBLAS {m['blas_kernels']} kernels" if m.get("blas_kernels") else "BLAS kernels unknown"
+    if m.get("blas_coretype", "auto") != "auto":
+        blas += f", OPENBLAS_CORETYPE={m['blas_coretype']}"
+    parts = "; ".join(x for x in (gen, m.get("simd", ""), blas) if x)
+    return f"{m.get('cpu_model') or 'unknown CPU'} ({parts}), {m.get('cpu_count', '?')} logical CPUs"

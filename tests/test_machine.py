@@ -35,3 +35,19 @@ def test_machine_info_records_the_cpu_generation_and_the_blas_kernels_in_use() -
     assert coretype == "Sandybridge"
     if kernels:  # numpy built on OpenBLAS (the wheels are): the override took effect
         assert kernels.lower() == "sandybridge"
+
+
+def test_describe_machine_names_the_cpu_generation_and_kernels_in_one_line() -> None:
+    """The benchmarks' header line: what tells two "AMD EPYC" machines and their BLAS apart."""
+    from pbr_xval.machine import describe_machine
+
+    info = {"cpu_model": "AMD EPYC", "cpu_family": "26", "cpu_model_number": "2", "simd": "avx512f",
+            "blas_coretype": "Haswell", "blas_kernels": "Haswell", "cpu_count": "2"}  # fmt: skip
+    assert describe_machine(info) == (
+        "AMD EPYC (family 26, model 2; avx512f; OpenBLAS Haswell kernels, OPENBLAS_CORETYPE=Haswell), "
+        "2 logical CPUs"
+    )
+    bare = {"cpu_model": "", "cpu_family": "", "cpu_model_number": "", "simd": "", "blas_coretype": "auto",
+            "blas_kernels": "", "cpu_count": "4"}  # fmt: skip
+    assert describe_machine(bare) == "unknown CPU (BLAS kernels unknown), 4 logical CPUs"
+    assert "\n" not in describe_machine()
