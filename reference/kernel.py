@@ -60,6 +60,7 @@ Compile time
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -87,6 +88,12 @@ __all__ = [
     "step_block",
     "support_hull",
 ]
+
+#: ``njit`` options of the kernel functions that allocate nothing and return no array: compiled
+#: without numba's reference counting, whose atomic increments and decrements of every array
+#: argument cost more than their arithmetic on the step's small arrays (reference/PERFORMANCE.md,
+#: thirteenth pass). Such a function must not allocate, return or store an array.
+_NO_REFCOUNT: dict[str, Any] = {"cache": True, "_nrt": False}
 
 STEP_OK = 0
 STEP_REJECTED = 1
@@ -188,7 +195,7 @@ def _lu_solve(a, b):
     return x, _lu_solve_inplace(a.copy(), x)
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _lu_solve_inplace(m, x):
     """:func:`_lu_solve` overwriting ``m`` (n, n) and ``x`` (n,) (x ← m⁻¹ x); ok flag."""
     n = m.shape[0]
@@ -250,7 +257,7 @@ def _cayley_project(r_new, r_old):
     return out
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _det3(r):
     return (
         r[0, 0] * (r[1, 1] * r[2, 2] - r[1, 2] * r[2, 1])
@@ -259,7 +266,7 @@ def _det3(r):
     )
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _norm3(v):
     return math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
@@ -286,7 +293,7 @@ def _mat(buf, o, n, m):
 
 # In-place forms for the direct iteration of :func:`step` (no allocation per iteration);
 # :func:`_solve3` and :func:`_cayley_project` above call them with fresh arrays.
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _mm_into(a, b, c):
     """c = a @ b for (3, 3) matrices (c distinct from a and b); :func:`_mm`'s arithmetic."""
     for i in range(3):
@@ -294,7 +301,7 @@ def _mm_into(a, b, c):
             c[i, j] = a[i, 0] * b[0, j] + a[i, 1] * b[1, j] + a[i, 2] * b[2, j]
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _solve3_into(a, b, inv, out):
     """out = a⁻¹ b (3, 3) by the cofactor inverse (:func:`_solve3` is this into fresh arrays);
     ``inv`` (3, 3) scratch."""
@@ -313,7 +320,7 @@ def _solve3_into(a, b, inv, out):
             out[i, j] = (inv[i, 0] * b[0, j] + inv[i, 1] * b[1, j] + inv[i, 2] * b[2, j]) / det
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _cayley_project_into(r_new, r_old, e, wk, out):
     """out = the projection of r_new onto SO(3) through the Cayley parameter of r_new r_oldᵀ
     (:func:`_cayley_project` is this into fresh arrays); ``e`` the (3, 3) identity, ``wk``
@@ -337,7 +344,7 @@ def _cayley_project_into(r_new, r_old, e, wk, out):
     _mm_into(dr, r_old, out)
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _omega3(R, inertia_inv, lm):
     """:func:`_omega` as three floats (its arithmetic)."""
     u0 = R[0, 0] * lm[0] + R[1, 0] * lm[1] + R[2, 0] * lm[2]
@@ -486,7 +493,7 @@ def _jacobians(r, slide, sdir, mu_d):
     return gm, gf
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _jacobians_into(r, slide, sdir, mu_d, gm, gf):
     """:func:`_jacobians` into the caller's ``gm``, ``gf`` (3k, 6) (zeroed here)."""
     k = r.shape[0]
@@ -624,7 +631,7 @@ def _contact_problem_into(
     return (w0 * w0 + w1 * w1 + w2 * w2) * rmax
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _skew_into(w0, w1, w2, s):
     """s = :func:`_skew` (w) in place (its zeros included)."""
     s[0, 0] = 0.0
@@ -652,7 +659,7 @@ def _check(A, b, f, status, mu, cons_tol, tdir):
     return _check_into(A, b, f, status, mu, cons_tol, tdir, a), a
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _check_into(A, b, f, status, mu, cons_tol, tdir, a):
     """:func:`_check` with the accelerations written into the caller's ``a`` (3k,); returns ok."""
     k = status.size
@@ -690,7 +697,7 @@ def _check_into(A, b, f, status, mu, cons_tol, tdir, a):
     return True
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _opposes(s0, s1, ax, ay, tol):
     """Whether the tangential acceleration (ax, ay) (m/s²) opposes the unit friction direction
     (s0, s1) of an impending slip: across it within ``tol`` and not along it by more than ``tol``
@@ -710,7 +717,7 @@ def _basis(a, rtol):
     return out[:, :r]
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _basis_into(a, rtol, q, norms, used, out):
     """:func:`_basis` into caller buffers — ``q`` (n, m), ``norms`` (m,), ``used`` (m,) bool
     scratch; the basis in ``out[:, :r]`` ((n, ≥ min(n, m))) — returns its rank r."""
@@ -861,7 +868,7 @@ def _clamped_solve_into(A, b, status, scale, ws, rows, used, f):
     return True
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _count_slip(st):
     m = 0
     for i in range(st.size):
@@ -1104,7 +1111,7 @@ def active_set_retry(A, b, status, mu, cons_tol, max_rounds, tdir, slide, stab):
     return ok and _slip_opposes(b, f, a, st, cons_tol), f, a, st
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _slip_opposes(b, f, a, st, cons_tol):
     """Whether every impending-slip contact (status 3) of an answer has its tangential
     acceleration opposite its friction (across it and along it within 1e-9 |b| + ``cons_tol``,
@@ -1595,7 +1602,7 @@ def _kinematics(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy):
     return r, gaps, vel, w
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _kinematics_into(x, v, R, lm, inertia_inv, nodes, cand, d, vp, ped_kind, hx, hy, r, gaps, vel):
     """The lever arms, gaps and velocities of :func:`_kinematics` of the candidate nodes
     ``cand`` into the caller's ``r`` (N, 3), ``gaps`` (N,) and ``vel`` (N, 3) — the other
@@ -1812,7 +1819,7 @@ def _forces_work(k):
     return n3 * n3 + n3 + 6 * n3 + 2 * k + 3 + _active_set_work(n3) + (9 * n3 + 3 * k + 45)
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _end_gaps(x1, R1, d1, nodes, cand, full, ped_kind, hx, hy, eps, out_gaps):
     """(smallest gap, nodes within ε) at the end of a step, over ``cand`` or every node."""
     n = nodes.shape[0] if full else cand.size
@@ -2204,7 +2211,7 @@ EXC_COMP = 8
 EXC_SIZE = 3 + 2 * EXC_COMP
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def _component_acc(exc, k0, data, t):
     """Ground acceleration (m/s²) of one component at t (s), the arithmetic of
     ``motion.Record._acceleration`` / ``motion.pulses._Pulse._acceleration`` times the
@@ -2232,7 +2239,7 @@ def _component_acc(exc, k0, data, t):
     return factor * a
 
 
-@njit(cache=True, _nrt=False)
+@njit(**_NO_REFCOUNT)
 def excitation_load(exc, data, t, out):
     """The inertial non-contact load per unit mass at t (s), g − a_ground(t), into ``out``
     (3,) m/s²: ``exc`` the layout ``EXC_*`` built by ``adapter.compiled_excitation``,
