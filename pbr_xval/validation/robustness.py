@@ -310,6 +310,11 @@ def guard_record(
     }
 
 
+def _same_tests(a: Sequence[Any], b: Sequence[Any]) -> bool:
+    """Whether two test lists hold the same test names (order and int/str spelling aside)."""
+    return sorted(str(t) for t in a) == sorted(str(t) for t in b)
+
+
 def check_mergeable(
     old: dict[str, Any], engine: str, specimen: int, tests: Sequence[str] | None = None
 ) -> None:
@@ -321,7 +326,7 @@ def check_mergeable(
             f"engine {old.get('engine')!r}, specimen {old.get('specimen')!r} in the old guard; expected "
             f"{engine!r}, {specimen}"
         )
-    if tests is not None and sorted(str(t) for t in old.get("tests", [])) != sorted(str(t) for t in tests):
+    if tests is not None and not _same_tests(old.get("tests", []), tests):
         raise ValueError(
             f"the old guard has {len(old.get('tests', []))} tests, this run {len(tests)}: expected the same test set"
         )
@@ -638,7 +643,7 @@ def check_comparable(
             raise ValueError(
                 f"ensemble {k} {rec_ens.get(k)!r} in the record, {ensemble.get(k)!r} in this run"
             )
-    if tests is not None and sorted(str(t) for t in record.get("tests", [])) != sorted(str(t) for t in tests):
+    if tests is not None and not _same_tests(record.get("tests", []), tests):
         raise ValueError(
             f"the record has {len(record.get('tests', []))} tests, this run {len(tests)}: expected the same tests"
         )
@@ -657,7 +662,7 @@ def compare_ensemble_records(new: dict[str, Any], record: dict[str, Any]) -> dic
     ``same_counts_as`` (variant → tests). Raises ``ValueError`` when the test sets differ.
     """
     tests = [str(t) for t in new["tests"]]
-    if sorted(tests) != sorted(str(t) for t in record["tests"]):
+    if not _same_tests(tests, record["tests"]):
         raise ValueError(
             f"the record has {len(record['tests'])} tests, this run {len(tests)}: expected the same tests"
         )
@@ -846,11 +851,12 @@ def _ensemble_main(
         )
     for v, s in summary["scores"].items():
         print(f"robustness ensemble SP{a.specimen} {v}: Brier {s['brier']:.4f}  F1 {s['f1']:.4f}")
+    from pbr_xval.machine import describe_machine
+
     for c in summary.get("compared", []):
-        m = c["measured"].get("machine", {})
         where = ", ".join(
-            str(x) for x in (m.get("cpu_model"), m.get("cpu_family") and f"family {m['cpu_family']}",
-                             c["measured"].get("date"), c["measured"].get("commit")) if x
+            str(x) for x in (describe_machine(c["measured"].get("machine", {})), c["measured"].get("date"),
+                             c["measured"].get("commit")) if x
         )  # fmt: skip
         same = "; ".join(f"{v} {len(ts)}/{len(order)}" for v, ts in c["same_counts_as"].items())
         print(
@@ -914,6 +920,7 @@ def main(argv: list[str] | None = None) -> int:
         for f in a.compare or []:
             try:
                 rec = json.loads(f.read_text())
+                # re-read per record: without --tests the first record's tests become this run's
                 tests = [t.strip() for t in a.tests.split(",") if t.strip()] if a.tests else None
                 check_comparable(
                     rec,
