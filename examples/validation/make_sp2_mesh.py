@@ -24,14 +24,15 @@ SCAN = HERE.parents[1].parent / "shared" / "data" / "scans" / "SP2_points.ply"
 OUT = HERE / "sp2.rock.obj"
 
 
-def main() -> int:
+def main(scan: Path = SCAN) -> int:
+    """Reconstruct the mesh from ``scan`` (SP2's point cloud) into ``sp2.rock.obj``; 0 on success, 2 if absent."""
     from pbr_xval.atomic import write_text_atomic
     from pbr_xval.geometry.rockmodel import build_rock_model
 
-    if not SCAN.is_file():
-        print(f"error: {SCAN} not found (the shared data must sit beside the repository)", file=sys.stderr)
+    if not scan.is_file():
+        print(f"error: {scan} not found (the shared data must sit beside the repository)", file=sys.stderr)
         return 2
-    model = build_rock_model(SCAN, density=None, mass=353.8, pose="settle")
+    model = build_rock_model(scan, density=None, mass=353.8, pose="settle")
     local = model.mesh.copy()
     local.apply_transform(np.linalg.inv(model.transform))  # back to the re-centred scan orientation
     write_text_atomic(OUT, local.export(file_type="obj"))

@@ -2,7 +2,7 @@
 
 The rock models are built as `pbr-xval rock` and the committed scenarios build them: the specimens'
 mass (353.8 kg), the default `settle` pose, 72 directions (5°). SP2 is the alpha-solid surface of
-its point cloud (`python examples/validation/make_sp2_mesh.py`, run by `.ci/run`).
+its point cloud (`python examples/validation/make_sp2_mesh.py`, run by tests/conftest.py when the mesh is missing).
 """
 
 from __future__ import annotations
