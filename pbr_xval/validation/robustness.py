@@ -38,7 +38,7 @@ robust in every file but with different outcomes is fragile too (it moved with t
 
     python -m pbr_xval.validation.robustness ../shared/data/shake_table --specimen 2 \
         --scenario examples/validation/sp2.toml --engine reference \
-        --variants base,tilt,haswell,skylakex,mass --out runs/robust_sp2_reference \
+        --variants base,tilt,haswell,sandybridge,skylakex,mass --out runs/robust_sp2_reference \
         --merge examples/validation/robustness/reference_sp2.json \
         --guard examples/validation/robustness/reference_sp2.json
 
@@ -338,15 +338,22 @@ def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
 
     A test is fragile if it is fragile in any file; a test robust in every file but with different
     outcomes is fragile too (its outcome moved with the machine: ``machine_flips``). The robust
-    outcomes, F1 interval and ``beats_rules`` are recomputed; the F1s, confusion counts and
-    rule F1 stay ``new``'s (this machine's run); ``variants`` and ``measured`` collect every file's.
-    Raises ``ValueError`` when the files are of different engines, specimens or test sets."""
+    outcomes, F1 interval and ``beats_rules`` are recomputed; the confusion counts, rule F1 and
+    base F1 stay ``new``'s (this machine's run); ``variants`` and ``measured`` collect every file's,
+    and a variant that ``new`` did not run keeps its flips (``fragile_by_variant``), F1 and place in
+    ``variants_run`` from the first file that ran it (each against that file's own base run), so a
+    run of one more variant (``--variants base,sandybridge --merge OLD``) adds to the record
+    instead of replacing it. Raises ``ValueError`` when the files are of different engines,
+    specimens or test sets."""
     out = dict(new)
     fragile = set(new["fragile_tests"])
     robust = dict(new["robust_outcomes"])
     machine_flips: set[str] = set(new.get("machine_flips", []))
     variants = dict(new["variants"])
     measured = list(new["measured"])
+    by_variant = dict(new.get("fragile_by_variant", {}))
+    f1s = dict(new.get("f1", {}))
+    run = list(new.get("variants_run", []))
     for o in old:
         check_mergeable(o, new["engine"], int(new["specimen"]), new["tests"])
         fragile |= set(o["fragile_tests"])
@@ -356,6 +363,13 @@ def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
                 machine_flips.add(t)
         for k, v in o.get("variants", {}).items():
             variants.setdefault(k, v)
+        for k, flips in o.get("fragile_by_variant", {}).items():
+            if k not in by_variant:
+                by_variant[k] = list(flips)
+                if k in o.get("f1", {}):
+                    f1s[k] = o["f1"][k]
+                if k not in run:
+                    run.append(k)
         m = o.get("measured", [])
         measured.extend(m if isinstance(m, list) else [m])
     fragile |= machine_flips
@@ -371,6 +385,9 @@ def merge_guards(new: dict[str, Any], *old: dict[str, Any]) -> dict[str, Any]:
         f1_range=[lo, hi],
         beats_rules=bool(lo > float(new["best_rule_f1"])),
         variants=variants,
+        variants_run=run,
+        fragile_by_variant=by_variant,
+        f1=f1s,
         measured=measured,
     )
     return out

@@ -276,6 +276,17 @@ def test_merge_unites_fragile_tests_and_marks_robust_outcomes_that_moved_with_th
     assert m["variants"] == {"tilt": "x", "haswell": "y"}
     assert m["measured"] == [{"date": "new"}, {"date": "old"}]
     assert m["f1"] == new["f1"] and m["confusion_base"] == new["confusion_base"]
+    # an old file's record of a variant the new run did not run is kept (flips, F1, variants_run);
+    # a variant both ran keeps the new run's
+    old_full = {
+        **old, "fragile_by_variant": {"haswell": ["2"], "tilt": ["2", "5"]}, "f1": {"base": 0.5, "haswell": 0.4, "tilt": 0.3},
+        "variants_run": ["base", "haswell", "tilt"],
+    }  # fmt: skip
+    m2 = merge_guards(new, old_full)
+    assert m2["fragile_by_variant"] == {**new["fragile_by_variant"], "haswell": ["2"]}
+    assert m2["f1"] == {**new["f1"], "haswell": 0.4} and m2["f1"]["base"] == new["f1"]["base"]
+    assert m2["variants_run"] == [*new["variants_run"], "haswell"]
+    assert m["fragile_by_variant"] == new["fragile_by_variant"]  # an old file without per-variant records
     with pytest.raises(ValueError, match="specimen"):
         merge_guards(new, {**old, "specimen": 2})
     with pytest.raises(ValueError, match="same test set"):
