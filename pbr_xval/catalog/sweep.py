@@ -354,7 +354,9 @@ def run_chunks(
         from rich.console import Console
 
         console = Console(stderr=True)
-    say = (lambda s: console.print(s)) if console is not None else (lambda s: None)
+    # one log line per message: a console that is not a terminal is 80 columns wide, and rich would
+    # hard-wrap a longer line (``… ETA 710`` / ``s``) in a log file
+    say = (lambda s: console.print(s, soft_wrap=True, markup=False, highlight=False)) if console is not None else (lambda s: None)  # fmt: skip
     bar_ctx: Any = contextlib.nullcontext()
     task = None
     # off a terminal (a pipe, a file, a batch job) a bar draws nothing until the end: plain lines

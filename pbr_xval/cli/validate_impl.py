@@ -278,7 +278,12 @@ def validate_command(
     )
     paths = write_report(res, out, meta)
     _print_scores(res, console, ens_spec is not None)
-    console.print(f"wrote {escape(str(paths['html']))}, outcomes.csv, scores.csv, bands.csv ({wall:.1f} s)")
+    took = f"{wall:.1f} s"  # the deterministic runs (and the baselines); an ensemble's phase is timed apart
+    if "ensemble_wall_s" in ens_meta:
+        took = f"deterministic runs {took}, ensemble {ens_meta['ensemble_wall_s']:.1f} s"
+    console.print(
+        f"wrote {escape(str(paths['html']))}, outcomes.csv, scores.csv, bands.csv ({took})", soft_wrap=True
+    )
     bad = sum(res.failures.values()) + summary.failed + int(ens_meta.get("ensemble_failed_runs", 0))
     if bad:
         err.print(f"[yellow]warning:[/] {bad} run(s)/chunk(s) failed; see outcomes.csv status columns")

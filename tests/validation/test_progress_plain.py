@@ -18,7 +18,9 @@ def test_validate_prints_plain_progress_lines_into_a_pipe(
     csv, scn, _ = box_campaign_files
     cmd = [sys.executable, "-c", "from pbr_xval.cli import app; app()", "validate", str(csv), "--specimen", "1", "--scenario", str(scn),
            "--engine", "housner", "--out", str(tmp_path / "r"), "--tail", "2", "--workers", "1", *RAW]  # fmt: skip
-    env = dict(os.environ, COLUMNS="200")
+    # a narrow console: a plain progress line is never hard-wrapped (rich wraps a non-terminal console at 80
+    # columns, which once split ``… ETA 710 s`` over two lines of a log file)
+    env = dict(os.environ, COLUMNS="30")
     res = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)  # stdout, stderr: pipes
     assert res.returncode == 0, res.stderr
     text = res.stdout + res.stderr

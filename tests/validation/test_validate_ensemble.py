@@ -49,6 +49,9 @@ def test_validate_ensemble_scores_and_resumes(
     assert (mem["mu"] == mem["value:contact.friction_static"]).all()  # each member's own friction ran
     doc = json.loads((out / "validation.json").read_text())
     assert doc["ensemble_members"] == 4 and doc["ensemble_uncertainty"]["seed"] == 2
+    # the closing line times both phases (it used to give the deterministic phase's time alone)
+    wrote = next(ln for ln in lines if ln.startswith("wrote "))
+    assert f"(deterministic runs {doc['wall_s']:.1f} s, ensemble {doc['ensemble_wall_s']:.1f} s)" in wrote
     # resumable: nothing is simulated again
     res2 = runner.invoke(app, args)
     assert res2.exit_code == 0 and "F1 ensemble 1.0000" in res2.output
