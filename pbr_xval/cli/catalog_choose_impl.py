@@ -63,8 +63,8 @@ def choose_campaign_command(
     from pbr_xval.settings_spec import COLLISION
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
 
-    console = console or Console()
-    err = Console(stderr=True)
+    console = console or Console(soft_wrap=True)
+    err = Console(stderr=True, soft_wrap=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True)

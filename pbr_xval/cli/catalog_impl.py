@@ -29,7 +29,7 @@ def _console(console: Any) -> Any:
         return console
     from rich.console import Console
 
-    return Console()
+    return Console(soft_wrap=True)
 
 
 def sweep_command(

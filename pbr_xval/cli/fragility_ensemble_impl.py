@@ -88,7 +88,7 @@ def ensemble_fragility_command(
     from pbr_xval.atomic import write_text_atomic
     from pbr_xval.catalog.fragility import fit_ensemble_fragility
 
-    con = console or Console()
+    con = console or Console(soft_wrap=True)
 
     def fail(msg: str) -> int:
         con.print("[red]error:[/red] " + escape(msg), highlight=False, soft_wrap=True)

@@ -17,7 +17,7 @@ def _console(console: Any) -> Any:
         return console
     from rich.console import Console
 
-    return Console()
+    return Console(soft_wrap=True)
 
 
 def _error(con: Any, msg: str) -> int:

@@ -34,8 +34,8 @@ def predict_command(
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.uncertainty import ensemble_spec
 
-    console = console or Console()
-    err = Console(stderr=True)
+    console = console or Console(soft_wrap=True)
+    err = Console(stderr=True, soft_wrap=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True)

@@ -48,7 +48,7 @@ def _console(console: Any) -> Any:
         return console
     from rich.console import Console
 
-    return Console()
+    return Console(soft_wrap=True)
 
 
 def _cmdline() -> str:

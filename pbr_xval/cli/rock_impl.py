@@ -97,7 +97,7 @@ def rock_command(
     from pbr_xval.geometry.mesh import MeshError
     from pbr_xval.geometry.rockmodel import build_rock_model
 
-    con = console or Console()
+    con = console or Console(soft_wrap=True)
 
     def fail(msg: str) -> int:
         con.print(f"[red]error:[/red] {escape(msg)}", soft_wrap=True, highlight=False)

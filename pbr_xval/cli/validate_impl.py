@@ -161,8 +161,8 @@ def validate_command(
     from pbr_xval.validation.campaign_report import evaluate, write_report
     from pbr_xval.validation.execution import run_campaign
 
-    console = console or Console()
-    err = Console(stderr=True)
+    console = console or Console(soft_wrap=True)
+    err = Console(stderr=True, soft_wrap=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True, highlight=False)

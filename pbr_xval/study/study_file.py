@@ -529,7 +529,7 @@ def run_study(
     if progress is None or progress is True:
         from rich.console import Console
 
-        console = console or Console(stderr=True)
+        console = console or Console(stderr=True, soft_wrap=True)
         if progress is True or console.is_terminal:
             from rich.progress import (
                 BarColumn,

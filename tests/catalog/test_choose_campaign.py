@@ -100,8 +100,12 @@ def test_candidates_skip_axes_an_engine_lacks():
     ]  # fmt: skip
 
 
-def test_choose_campaign_cli(tmp_path, capsys):
+def test_choose_campaign_cli(tmp_path, capsys, monkeypatch):
     from pbr_xval.cli.catalog_choose_impl import choose_campaign_command
+
+    # a narrow console that is not a terminal: no line is hard-wrapped (rich wraps at the console width
+    # unless it soft-wraps, which once split the closing ``wrote …`` line of a log file)
+    monkeypatch.setenv("COLUMNS", "30")
 
     csv = _campaign(tmp_path / "camp")
     scn = tmp_path / "box.toml"
@@ -125,6 +129,10 @@ def test_choose_campaign_cli(tmp_path, capsys):
         assert float(m.group(4)) == pytest.approx(0.25)
         assert float(m.group(5)) == pytest.approx(0.8)
     assert rec[0].split()[1] in ("housner", "mujoco")
+    assert any(
+        re.fullmatch(r"wrote \S+index\.html, settings\.csv, tests\.csv, tradeoff\.json \([\d.]+ s\)", ln)
+        for ln in lines
+    )
     for name in ("index.html", "pareto.png", "settings.csv", "tests.csv", "tradeoff.json"):
         assert (out / name).is_file(), name
     doc = json.loads((out / "tradeoff.json").read_text())

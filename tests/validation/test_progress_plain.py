@@ -33,3 +33,7 @@ def test_validate_prints_plain_progress_lines_into_a_pipe(
     assert all(x[1] == "0" and x[2] == "0" for x in lines)
     assert lines[-1][3] == "finished" and lines[0][3].startswith("ETA")
     assert "━" not in text  # no bar characters in a pipe
+    # nor is any other line (every command's consoles soft-wrap): the closing line is whole
+    assert re.search(
+        r"^wrote \S+index\.html, outcomes\.csv, scores\.csv, bands\.csv \([\d.]+ s\)$", text, re.M
+    )
