@@ -184,7 +184,7 @@ def test_choose_page_opens_with_a_verdict_and_the_settings() -> None:
     report = Path(__file__).resolve().parents[2] / "reports" / "tradeoff_sp1"
     page = (report / "index.html").read_text()
     head = page[: page.index("<h2>Pareto front")]
-    assert 'id="verdict"' in head and "Recommended: <b>mujoco" in head
+    assert 'id="verdict"' in head and "Recommended: <b>reference" in head
     assert "Disagreement beyond tolerance" in head
     with (report / "settings.csv").open() as fh:
         failed = [r["settings"] for r in csv.DictReader(fh) if int(r["n_failed"])]
