@@ -351,9 +351,9 @@ def run_chunks(
             todo.append(c)
 
     if console is None and progress:
-        from rich.console import Console
+        from pbr_xval.console import make_console
 
-        console = Console(stderr=True, soft_wrap=True)
+        console = make_console(stderr=True)
     # one log line per message: a console that is not a terminal is 80 columns wide, and rich would
     # hard-wrap a longer line (``… ETA 710`` / ``s``) in a log file
     say = (lambda s: console.print(s, soft_wrap=True, markup=False, highlight=False)) if console is not None else (lambda s: None)  # fmt: skip

@@ -54,17 +54,17 @@ def choose_campaign_command(
 ) -> int:
     """Validate the inputs, run engines × profiles × dt × collision on the campaign, print the
     ``choice`` / ``recommend`` lines and write the report folder."""
-    from rich.console import Console
     from rich.markup import escape
 
     from pbr_xval.catalog.tradeoff import candidate_settings, choice_lines, run_tradeoff, write_tradeoff
+    from pbr_xval.console import make_console
     from pbr_xval.engine import get_engine
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.settings_spec import COLLISION
     from pbr_xval.validation.campaign import Baseline, CampaignError, load_campaign
 
-    console = console or Console(soft_wrap=True)
-    err = Console(stderr=True, soft_wrap=True)
+    console = make_console(console)
+    err = make_console(stderr=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True)

@@ -30,9 +30,10 @@ def cluster_sweep_command(
     """Check the cluster options, build the cluster, run ``sweep_command`` through it, close it."""
     from pbr_xval.catalog import CatalogError, load_catalog
     from pbr_xval.catalog.cluster import ClusterConfigError, load_cluster_config, make_cluster
-    from pbr_xval.cli.catalog_impl import _console, _error, sweep_command
+    from pbr_xval.cli.catalog_impl import _error, sweep_command
+    from pbr_xval.console import make_console
 
-    con = _console(console)
+    con = make_console(console)
     problems = []
     if executor != "dask":
         problems.append(f"--cluster {cluster}: needs --executor dask")

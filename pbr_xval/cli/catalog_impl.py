@@ -9,6 +9,8 @@ import math
 from pathlib import Path
 from typing import Any
 
+from pbr_xval.console import make_console
+
 __all__ = ["choose_command", "sweep_command"]
 
 
@@ -22,14 +24,6 @@ def _error(con: Any, msg: str) -> None:
     """``error: <msg>``, one line per line of ``msg`` (never wrapped at the terminal width)."""
     for line in msg.splitlines():
         con.print("[red]error:[/red] " + escape(line), highlight=False, soft_wrap=True)
-
-
-def _console(console: Any) -> Any:
-    if console is not None:
-        return console
-    from rich.console import Console
-
-    return Console(soft_wrap=True)
 
 
 def sweep_command(
@@ -56,7 +50,7 @@ def sweep_command(
     from pbr_xval.engine import registered_names
     from pbr_xval.errors import OutputPathError
 
-    con = _console(console)
+    con = make_console(console)
     try:
         cat = load_catalog(catalog)
         parse_shard(shard)
@@ -109,7 +103,7 @@ def choose_command(catalog: Path, budget: float, out: Path, console: Any = None)
     from pbr_xval.catalog import CatalogError, load_catalog
     from pbr_xval.catalog.choose import choose, format_choice, write_choice
 
-    con = _console(console)
+    con = make_console(console)
     try:
         cat = load_catalog(catalog)
     except CatalogError as exc:

@@ -82,13 +82,13 @@ def ensemble_fragility_command(
     console: Any = None,
 ) -> int:
     """Fit PGA and PGV fragilities to the member runs in ``results``; write the CSVs into ``out``."""
-    from rich.console import Console
     from rich.markup import escape
 
     from pbr_xval.atomic import write_text_atomic
     from pbr_xval.catalog.fragility import fit_ensemble_fragility
+    from pbr_xval.console import make_console
 
-    con = console or Console(soft_wrap=True)
+    con = make_console(console)
 
     def fail(msg: str) -> int:
         con.print("[red]error:[/red] " + escape(msg), highlight=False, soft_wrap=True)

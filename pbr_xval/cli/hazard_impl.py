@@ -9,15 +9,9 @@ import math
 from pathlib import Path
 from typing import Any
 
+from pbr_xval.console import make_console
+
 __all__ = ["constrain_command", "fragility_command"]
-
-
-def _console(console: Any) -> Any:
-    if console is not None:
-        return console
-    from rich.console import Console
-
-    return Console(soft_wrap=True)
 
 
 def _error(con: Any, msg: str) -> int:
@@ -66,7 +60,7 @@ def fragility_command(
     from pbr_xval.hazard.ims import oq_factor, oq_unit
     from pbr_xval.hazard.nrml import write_fragility_csv, write_fragility_model
 
-    con = _console(console)
+    con = make_console(console)
     if not 0 < ci < 1:
         return _error(con, f"--ci {ci!r}: expected a confidence level in (0, 1), e.g. 0.95")
     if any(not (p > 0 and math.isfinite(p)) for p in periods):
@@ -164,7 +158,7 @@ def constrain_command(
     from pbr_xval.hazard.ims import G, HazardInputError
     from pbr_xval.hazard.survival import constrain
 
-    con = _console(console)
+    con = make_console(console)
     try:  # before the example's inputs or any computation are written
         check_output_dir(out, "--out")
     except OutputPathError as exc:

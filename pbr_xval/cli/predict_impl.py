@@ -26,16 +26,16 @@ def predict_command(
     member: int | None = None,
 ) -> int:
     """Check every input, run the ensemble, print P(topple) and write members.csv / predict.json."""
-    from rich.console import Console
     from rich.markup import escape
 
+    from pbr_xval.console import make_console
     from pbr_xval.engine import get_engine
     from pbr_xval.registry import registered_names
     from pbr_xval.scenario import ScenarioError, load_scenario
     from pbr_xval.uncertainty import ensemble_spec
 
-    console = console or Console(soft_wrap=True)
-    err = Console(stderr=True, soft_wrap=True)
+    console = make_console(console)
+    err = make_console(stderr=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True)

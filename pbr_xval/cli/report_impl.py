@@ -26,6 +26,8 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+from pbr_xval.console import make_console
+
 __all__ = [
     "demo_command",
     "examples_dir",
@@ -41,14 +43,6 @@ LOG_INTERVAL_S = 10.0
 
 #: native start-up lines of engine libraries written straight to fd 1 (they break a progress bar)
 BANNERS = (re.compile(r"^pybullet build time: "),)
-
-
-def _console(console: Any) -> Any:
-    if console is not None:
-        return console
-    from rich.console import Console
-
-    return Console(soft_wrap=True)
 
 
 def _cmdline() -> str:
@@ -226,7 +220,7 @@ def report_command(
     from pbr_xval.report import write_report
     from pbr_xval.study.study_file import StudyFileError, is_failed, load_study_spec, run_study
 
-    con = _console(console)
+    con = make_console(console)
     study_path = Path(study_path)
     try:
         spec = load_study_spec(study_path, quick=quick)
@@ -333,7 +327,7 @@ def regress_command(
 
     from pbr_xval.study.regress import GoldenError, regress
 
-    con = _console(console)
+    con = make_console(console)
     if update and fast:
         con.print("[yellow]note:[/] --fast is ignored with --update (the values are measured in full)")
     try:
@@ -402,7 +396,7 @@ def demo_command(out_root: Path = Path("reports"), quick: bool = False, console:
     """Run ``examples/studies/demo.toml`` and write ``<out_root>/demo/``; returns the exit code."""
     from rich.markup import escape
 
-    con = _console(console)
+    con = make_console(console)
     ex = examples_dir()
     demo = ex / "studies" / "demo.toml"
     if not demo.is_file():

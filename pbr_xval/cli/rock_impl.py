@@ -88,16 +88,16 @@ def rock_command(
     """
     import math
 
-    from rich.console import Console
     from rich.markup import escape
 
     from pbr_xval.atomic import check_output_dir, check_output_file
+    from pbr_xval.console import make_console
     from pbr_xval.errors import OutputPathError
     from pbr_xval.geometry.interface import plot_stability_polar
     from pbr_xval.geometry.mesh import MeshError
     from pbr_xval.geometry.rockmodel import build_rock_model
 
-    con = console or Console(soft_wrap=True)
+    con = make_console(console)
 
     def fail(msg: str) -> int:
         con.print(f"[red]error:[/red] {escape(msg)}", soft_wrap=True, highlight=False)

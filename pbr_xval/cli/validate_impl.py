@@ -149,11 +149,11 @@ def validate_command(
     batch: int = 4,
 ) -> int:
     """Validate the inputs (campaign, scenario, engines) in full, run, score, write the report."""
-    from rich.console import Console
     from rich.markup import escape
 
     from pbr_xval.atomic import check_output_dir
     from pbr_xval.cli._app import _parse_sets
+    from pbr_xval.console import make_console
     from pbr_xval.engine import get_engine
     from pbr_xval.errors import OutputPathError
     from pbr_xval.scenario import ScenarioError, load_scenario
@@ -161,8 +161,8 @@ def validate_command(
     from pbr_xval.validation.campaign_report import evaluate, write_report
     from pbr_xval.validation.execution import run_campaign
 
-    console = console or Console(soft_wrap=True)
-    err = Console(stderr=True, soft_wrap=True)
+    console = make_console(console)
+    err = make_console(stderr=True)
 
     def fail(msg: str) -> int:
         err.print(f"[red]error:[/] {escape(msg)}", soft_wrap=True, highlight=False)

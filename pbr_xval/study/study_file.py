@@ -527,9 +527,9 @@ def run_study(
 
     bar = None
     if progress is None or progress is True:
-        from rich.console import Console
+        from pbr_xval.console import make_console
 
-        console = console or Console(stderr=True, soft_wrap=True)
+        console = make_console(console, stderr=True)
         if progress is True or console.is_terminal:
             from rich.progress import (
                 BarColumn,
