@@ -29,7 +29,7 @@ TREES = {
 
 #: (layer name, module patterns), lowest first; an exact name wins, then the first matching pattern
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
-    # small shared pieces: units, hashing, JSON, atomic writes, errors, version, settings table
+    # small shared pieces: units, hashing, JSON, atomic writes, errors, version, settings table, consoles
     (
         "foundation",
         (
@@ -46,6 +46,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "pbr_xval.lifeline",
             "pbr_xval.quaternions",
             "pbr_xval.machine",
+            "pbr_xval.console",
         ),
     ),
     # scan → rock model; ground motions
