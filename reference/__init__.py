@@ -50,9 +50,12 @@ This is the one place that lists them; each is also marked where it is implement
    ``accepted_penetration_max_m`` gives the deepest, and each (the first
    :data:`engine.MAX_ACCEPT_EVENTS` of a run) is a ``step_accepted_penetrating`` event
    with Δt, the penetration and ε.
-6. **Velocity stabilisation.** Small residual approaching normal velocities of resting
-   contacts and tangential velocities of sticking ones (left by the integration) are removed
-   by a term v₀/Δt in the free acceleration b; zero in exact arithmetic.
+6. **Velocity stabilisation.** Small residual normal velocities of resting contacts
+   (approaching, or receding slower than ``separation_velocity``) and tangential velocities
+   of sticking ones (left by the integration) are removed by a term v₀/Δt in the free
+   acceleration b; zero in exact arithmetic. (Until 2026-11-28 only approaching normal
+   velocities were: a receding resting contact then kept its velocity under its resting
+   force, a rigid creep gravity never stopped; ``tests/reference/test_receding_contact.py``.)
 7. **Thresholds the paper leaves open:** an in-band contact approaching faster than
    ``impact_velocity`` (1e-3 m/s) gets eq. 3.5 impulses; one sliding faster than
    ``slip_velocity`` (1e-4 m/s) gets dynamic friction μ_d; one separating faster than

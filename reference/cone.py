@@ -314,6 +314,90 @@ def _gs_sweeps(A, f, a, diag_n, active, lam, Q, mu, it0, it1, tol, force_scale):
     return it, False
 
 
+@njit(cache=True)
+def _eig_sym2(p, r, s):
+    """Eigen-decomposition of the symmetric 2 × 2 matrix [[p, r], [r, s]] by one Jacobi
+    rotation (exact to round-off; the LAPACK call it replaces cost ~10 µs from Python):
+    (λ (2,) ascending, clipped at 0; Q (2, 2), the eigenvectors in its columns)."""
+    lam = np.empty(2)
+    Q = np.empty((2, 2))
+    if r == 0.0:
+        c, sn, l0, l1 = 1.0, 0.0, p, s
+    else:
+        tau = (s - p) / (2.0 * r)
+        t = (1.0 if tau >= 0.0 else -1.0) / (abs(tau) + math.sqrt(1.0 + tau * tau))
+        c = 1.0 / math.sqrt(1.0 + t * t)
+        sn = t * c
+        l0, l1 = p - t * r, s + t * r
+    # columns (c, -sn) for l0 and (sn, c) for l1
+    if l0 <= l1:
+        lam[0], lam[1] = l0, l1
+        Q[0, 0], Q[1, 0], Q[0, 1], Q[1, 1] = c, -sn, sn, c
+    else:
+        lam[0], lam[1] = l1, l0
+        Q[0, 0], Q[1, 0], Q[0, 1], Q[1, 1] = sn, c, c, -sn
+    lam[0] = max(lam[0], 0.0)
+    lam[1] = max(lam[1], 0.0)
+    return lam, Q
+
+
+@njit(cache=True)
+def _cone_setup(A, b, mu, f):
+    """The start of :func:`solve_friction_cone`, compiled: ``f`` (3k,) (the warm start, or
+    zeros) projected onto the cones in place (f_n ≥ 0, |f_t| ≤ μ f_n), and returns
+    (a = A f + b (3k,), the force scale max|b| / max|A|, A's normal diagonal (k,), the contacts
+    with A_nn > 0 (k,) bool, the eigenvalues (k, 2) and eigenvectors (k, 2, 2) of each
+    contact's symmetrised tangential block)."""
+    k = b.size // 3
+    n = 3 * k
+    for i in range(k):
+        fn = max(f[3 * i], 0.0)
+        f[3 * i] = fn
+        fx, fy = f[3 * i + 1], f[3 * i + 2]
+        nt = math.sqrt(fx * fx + fy * fy)
+        if nt > mu[i] * fn:
+            sc = mu[i] * fn / nt
+            f[3 * i + 1] = fx * sc
+            f[3 * i + 2] = fy * sc
+    a = np.empty(n)
+    a_scale = 0.0
+    for r in range(n):
+        acc = 0.0
+        for c in range(n):
+            acc += A[r, c] * f[c]
+            a_scale = max(a_scale, abs(A[r, c]))
+        a[r] = acc + b[r]
+    b_max = 0.0
+    for r in range(n):
+        b_max = max(b_max, abs(b[r]))
+    force_scale = b_max / a_scale if a_scale > 0 else 0.0
+    diag_n = np.empty(k)
+    active = np.empty(k, dtype=np.bool_)
+    lam = np.empty((k, 2))
+    Q = np.empty((k, 2, 2))
+    for i in range(k):
+        diag_n[i] = A[3 * i, 3 * i]
+        active[i] = diag_n[i] > 1e-14 * max(a_scale, 1e-300)
+        off = 0.5 * (A[3 * i + 1, 3 * i + 2] + A[3 * i + 2, 3 * i + 1])
+        li, Qi = _eig_sym2(A[3 * i + 1, 3 * i + 1], off, A[3 * i + 2, 3 * i + 2])
+        lam[i, 0], lam[i, 1] = li[0], li[1]
+        Q[i] = Qi
+    return a, force_scale, diag_n, active, lam, Q
+
+
+@njit(cache=True)
+def cone_first_sweeps(A, b, mu, warm, tol):
+    """:func:`solve_friction_cone` from the warm start ``warm`` (3k,) up to its first
+    contact-mode polish (sweeps 1 … ``POLISH_EVERY`` − 1), compiled: the same arithmetic
+    (:func:`_cone_setup`, :func:`_gs_sweeps`), so the same forces when it converges there —
+    the common case of the impacts of a rocking rock (8–24 sweeps). Returns (converged,
+    sweeps, forces (3k,)); not converged: the caller runs :func:`solve_friction_cone`."""
+    f = warm.copy()
+    a, force_scale, diag_n, active, lam, Q = _cone_setup(A, b, mu, f)
+    it, converged = _gs_sweeps(A, f, a, diag_n, active, lam, Q, mu, 1, POLISH_EVERY - 1, tol, force_scale)
+    return converged, it, f
+
+
 def _friction_merit(f: np.ndarray, a: np.ndarray, mu: np.ndarray, fs: float, acs: float) -> float:
     """Largest residual of :func:`friction_residuals`, made dimensionless."""
     r = friction_residuals(f, a, mu)
@@ -637,11 +721,6 @@ def solve_friction_cone(
         f = np.asarray(warm_start, dtype=float).reshape(-1).copy()
         if f.size != 3 * k:
             raise ValueError("warm_start has the wrong size")
-        F = f.reshape(-1, 3)
-        F[:, 0] = np.maximum(F[:, 0], 0.0)
-        nt = np.linalg.norm(F[:, 1:], axis=1)
-        over = nt > mu_arr * F[:, 0]
-        F[over, 1:] *= (mu_arr[over] * F[over, 0] / nt[over])[:, None]
     if k == 0:
         return FrictionResult(
             f=f,
@@ -652,25 +731,16 @@ def solve_friction_cone(
             mu=mu_arr,
             method="pgs_cone",
         )
-    a = A @ f + b
-    a_scale = float(np.max(np.abs(A))) if A.size else 0.0
-    force_scale = float(np.max(np.abs(b))) / a_scale if a_scale > 0 else 0.0
-    diag_n = np.array([A[3 * i, 3 * i] for i in range(k)])
-    active = diag_n > 1e-14 * max(a_scale, 1e-300)
-    Att = [A[3 * i + 1 : 3 * i + 3, 3 * i + 1 : 3 * i + 3] for i in range(k)]
-    eig_lam, eig_Q = [], []
-    for i in range(k):
-        lam_i, Q_i = np.linalg.eigh(0.5 * (Att[i] + Att[i].T))
-        eig_lam.append(np.maximum(lam_i, 0.0))
-        eig_Q.append(Q_i)
+    A_c = np.ascontiguousarray(A)
+    b = np.ascontiguousarray(b)
+    # the warm start projected onto the cones, a = A f + b and the per-contact data of the
+    # sweeps, compiled (the arithmetic the kernel's impacts use: cone_first_sweeps)
+    a, force_scale, diag_n, active, lam_arr, q_arr = _cone_setup(A_c, b, mu_arr, f)
     acc_scale = max(float(np.max(np.abs(b))), 1e-300)
     polish_every = POLISH_EVERY
     converged = False
     it = 0
     method = "pgs_cone"
-    lam_arr = np.array(eig_lam, dtype=float).reshape(k, 2)
-    q_arr = np.ascontiguousarray(np.array(eig_Q, dtype=float).reshape(k, 2, 2))
-    A_c = np.ascontiguousarray(A)
     while it < max_iter:
         # sweep it + 1 after its restart or polish, then the
         # compiled sweeps up to the next restart or polish

@@ -80,7 +80,6 @@ Ground motion
 from __future__ import annotations
 
 import bisect
-import functools
 import hashlib
 import math
 import time
@@ -386,12 +385,6 @@ class ContactStats:
             "cone_violation_max": mx(self.cone),
             "max_penetration_m": self.max_penetration,
         }
-
-
-@functools.lru_cache(maxsize=64)
-def _tangential_columns(k: int) -> np.ndarray:
-    """Column ids (1, 4, …, 2, 5, …) of the x then y tangential unknowns of k contacts."""
-    return np.concatenate([np.arange(1, 3 * k, 3), np.arange(2, 3 * k, 3)])
 
 
 class StepRejected(Exception):
@@ -817,20 +810,19 @@ class RigidBodySolver:
         """Eq. 3.5 on the normal impulses of ``j`` (written), its tangential impulses held fixed,
         when :func:`kernel.impact_impulses` did not answer: selection among the (for e = 0 and
         redundant contacts) non-unique solutions."""
-        k = q.size // 3
-        qn = q[0::3] + A[0::3][:, _tangential_columns(k)] @ np.concatenate([j[1::3], j[2::3]])
-        Ann = np.ascontiguousarray(A[0::3, 0::3])
         # a positive definite, well-conditioned A_nn (at most three non-collinear hull
         # contacts, the common case) has one solution: no selection to make, and the
-        # enumeration of its principal subsets finds it faster than pivoting
-        unique, zn = kernel.lcp_unique(Ann, np.ascontiguousarray(qn))
+        # enumeration of its principal subsets finds it faster than pivoting (compiled, the
+        # arithmetic of the kernel's in-block impacts)
+        unique, reverted, qn, Ann = kernel.impact_cone_normals(A, q, j, float(self.mu_s))
         if unique:
-            res_ok = True
-        else:
-            ref = prev[0::3] if self.selection == "closest_to_previous" else None
-            resn = selection.solve_lcp_min_norm(Ann, qn, reference=ref, method=self.method)
-            self.stats.lcp_pivots += resn.pivots
-            res_ok, zn = resn.ok, resn.z
+            if reverted:
+                self.stats.selection_reverted += 1
+            return
+        ref = prev[0::3] if self.selection == "closest_to_previous" else None
+        resn = selection.solve_lcp_min_norm(Ann, qn, reference=ref, method=self.method)
+        self.stats.lcp_pivots += resn.pivots
+        res_ok, zn = resn.ok, resn.z
         jn_cone = j[0::3].copy()
         if res_ok:
             j[0::3] = zn
@@ -1107,6 +1099,7 @@ class RigidBodySolver:
         st.cone.append(v[kernel.J_CONE])
         if v[kernel.J_REVERTED]:
             st.selection_reverted += 1
+        st.pgs_sweeps += int(v[kernel.J_SWEEPS])
         w = row[kernel.J_W0 : kernel.J_W0 + 3].copy()
         nw = math.sqrt(float(w.dot(w)))
         nw2 = v[kernel.J_W1]

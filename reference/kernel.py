@@ -66,6 +66,7 @@ import numpy as np
 from numba import njit
 
 from pbr_xval.reference.cone import _residuals as _friction_residuals
+from pbr_xval.reference.cone import cone_first_sweeps
 
 __all__ = [
     "IMPACT_CONE",
@@ -79,6 +80,7 @@ __all__ = [
     "active_set_retry",
     "active_set_solve",
     "contact_problem",
+    "impact_cone_normals",
     "impact_impulses",
     "impact_pending",
     "kinematics",
@@ -1075,8 +1077,9 @@ def active_set_retry(A, b, status, mu, cons_tol, max_rounds, tdir, slide, stab):
       friction another sticking contact needs leaves that one's cone, the rounds cycle
       between "stick" and "impending slip" there. Retried from the guess with every
       status-3 contact sticking.
-    * a stabilisation no force can reach: the normal rows of ``stab`` are min(v_n, 0)/dt
-      (only approaching contacts) and its components below 1e-8 m/s are zeroed, so it is not
+    * a stabilisation no force can reach: the tangential rows of ``stab`` are zero on sliding
+      contacts and its components below 1e-8 m/s are zeroed (until 2026-11-28 its normal rows
+      were also zero on receding contacts: min(v_n, 0)/dt), so it is not
       the acceleration field of a rigid body; on three sticking contacts (9 rows, rank 6) its
       component outside A's range is left in the clamped rows' least-squares residual, and
       exceeds the tolerance (1e-9 |b| + ``cons_tol``, which bounds only the centripetal term).
@@ -1656,7 +1659,11 @@ def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
     """Contacts of a step (see :meth:`dynamics.RigidBodySolver._contacts`) among the candidate nodes
     ``cand`` (ascending), support-hull reduced when no contact slides.
 
-    Returns (idx (k,), slide (k,) bool, sdir (k, 3), stab (3k,))."""
+    Returns (idx (k,), slide (k,) bool, sdir (k, 3), stab (3k,)). ``stab`` (m/s²) is the velocity
+    stabilisation (deviation 6 of :mod:`pbr_xval.reference`): v/Δt of each contact's normal
+    velocity (approaching or receding: a resting contact receding slower than ``v_sep`` carries
+    a force, which without it would hold that velocity constant) and of a sticking contact's
+    tangential velocity, components below 1e-8 m/s left out."""
     cnt = 0
     for c in range(cand.size):
         i = cand[c]
@@ -1691,7 +1698,7 @@ def contact_set(gaps, vel, nodes, cand, eps, v_sep, v_slip, mu_d, dt, reduce):
         for c in range(3):
             vv = vel[i, c] if abs(vel[i, c]) > 1e-8 else 0.0
             if c == 0:
-                stab[3 * a] = min(vv, 0.0) / dt
+                stab[3 * a] = vv / dt
             elif not slide[a]:
                 stab[3 * a + c] = vv / dt
     return idx, slide, sdir, stab
@@ -2683,6 +2690,46 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
 
 
 @njit(cache=True)
+def impact_cone_normals(A, q, j, mu_s):
+    """Eq. 3.5 on the normal impulses of the cone solver's impulses ``j`` (3k,), its tangential
+    impulses held fixed, when the normal LCP has one solution (:func:`lcp_unique`): the normal
+    impulses are replaced in place, and put back (reverted) if a tangential impulse then
+    leaves its cone (μ_s > 0). Returns (unique, reverted, q_n (k,), A_nn (k, k)); not unique:
+    ``j`` untouched, the caller selects among the solutions from q_n and A_nn
+    (:meth:`dynamics.RigidBodySolver._impact_normals`)."""
+    k = q.size // 3
+    qn = np.empty(k)
+    Ann = np.empty((k, k))
+    for i in range(k):
+        s = q[3 * i]
+        for c in range(k):
+            s += A[3 * i, 3 * c + 1] * j[3 * c + 1] + A[3 * i, 3 * c + 2] * j[3 * c + 2]
+            Ann[i, c] = A[3 * i, 3 * c]
+        qn[i] = s
+    unique, zn = lcp_unique(Ann, qn)
+    if not unique:
+        return False, False, qn, Ann
+    jn_cone = np.empty(k)
+    for i in range(k):
+        jn_cone[i] = j[3 * i]
+        j[3 * i] = zn[i]
+    reverted = False
+    if mu_s > 0:
+        # the re-selection moves normal impulse only within null(A_nn) (no change of motion);
+        # kept only if every tangential impulse stays inside its cone
+        jt_max = 0.0
+        for i in range(k):
+            jt_max = max(jt_max, math.hypot(j[3 * i + 1], j[3 * i + 2]))
+        for i in range(k):
+            if math.hypot(j[3 * i + 1], j[3 * i + 2]) > mu_s * j[3 * i] * (1 + 1e-9) + 1e-12 * jt_max:
+                reverted = True
+        if reverted:
+            for i in range(k):
+                j[3 * i] = jn_cone[i]
+    return True, reverted, qn, Ann
+
+
+@njit(cache=True)
 def impact_finish(R, inertia_inv, mass, r, A, q, bvel, j, v, lm):
     """The velocity jump of eq. 3.5 impulses ``j`` (3k,) on the contacts at lever arms ``r``
     (k, 3) (world frame, m), from the COM velocity ``v`` (3,) m/s and angular momentum ``lm``
@@ -2722,10 +2769,10 @@ def impact_finish(R, inertia_inv, mass, r, A, q, bvel, j, v, lm):
 #: velocity of the hull contacts m/s, in-band nodes, hull contacts, contacts with a normal
 #: impulse, ω before (3, rad/s), |ω| after rad/s, the smallest post-impact normal velocity m/s,
 #: the four residuals of :func:`cone.friction_residuals` kept in the statistics, 1 when the
-#: re-selected normal impulses were reverted)
+#: re-selected normal impulses were reverted, the iterative cone solver's sweeps)
 J_FLAG, J_VNMIN, J_NODES, J_HULL, J_IMPULSE, J_W0, J_W1 = 0, 1, 2, 3, 4, 5, 8
-J_VNAFTER, J_SIGF, J_SIGA, J_COMPL, J_CONE, J_REVERTED = 9, 10, 11, 12, 13, 14
-N_IMP = 15
+J_VNAFTER, J_SIGF, J_SIGA, J_COMPL, J_CONE, J_REVERTED, J_SWEEPS = 9, 10, 11, 12, 13, 14, 15
+N_IMP = 16
 # impact parameters of :func:`step_block` (``imp``): restitution, μ_s, support-hull reduction
 # (1/0), the body's size m (the hull's tolerance is 1e-9 of it), 1 when the impulse selection is
 # "closest_to_previous" (0: minimum norm)
@@ -2784,7 +2831,23 @@ def _block_impact(cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, p
         for a in range(k):
             ref[a] = prev_force[idx[a], 0] * dt
     stage, A, q, j = impact_impulses(R, inertia_inv, prm[P_MASS], r, bvel, imp[IMP_E], mu_s, ref)
-    if stage == IMPACT_CONE or stage == IMPACT_SELECT:
+    sweeps = 0
+    if stage == IMPACT_CONE:
+        # the iterative cone solver's first sweeps (most impacts of a rocking rock converge
+        # there), then eq. 3.5 on the normal impulses — as the Python path starts them
+        # (solve_friction_cone, _impact_normals); anything further is left to it
+        warm = np.empty(3 * k)
+        for a in range(k):
+            for c in range(3):
+                warm[3 * a + c] = prev_force[idx[a], c] * dt
+        conv, sweeps, j = cone_first_sweeps(A, q, np.full(k, mu_s), warm, 1e-13)
+        if not conv:
+            return False
+        unique, reverted, _, _ = impact_cone_normals(A, q, j, mu_s)
+        if not unique:
+            return False
+        stage = IMPACT_REVERTED if reverted else IMPACT_DONE
+    elif stage == IMPACT_SELECT:
         return False
     v2, l2, nw2, vn_after, wres = impact_finish(
         R, inertia_inv, prm[P_MASS], r, A, q, bvel, j, cur[3:6].copy(), cur[15:18].copy()
@@ -2819,4 +2882,5 @@ def _block_impact(cur, prm, imp, inertia_inv, nodes, cand, active, prev_force, p
     row[J_COMPL] = res6[2]
     row[J_CONE] = res6[3]
     row[J_REVERTED] = 1.0 if stage == IMPACT_REVERTED else 0.0
+    row[J_SWEEPS] = sweeps
     return True

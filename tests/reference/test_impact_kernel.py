@@ -4,7 +4,10 @@ References: the NumPy/Python path it replaces on its fast stages — the iterati
 (``cone.solve_friction_cone``) for the impact cone and Dantzig's pivoting
 (``pivoting.dantzig``) for the normal LCP — and the rigid-body impulse law Δu̇ = ΣJ/m,
 Δl = Σ r × J written with NumPy; a sliding landing worked by hand (Coulomb impulse on the cone,
-opposing the post-impact tangential velocity).
+opposing the post-impact tangential velocity). The cone solver's compiled first sweeps
+(``cone.cone_first_sweeps``, which the blocks run on ``IMPACT_CONE`` impacts) against the
+general solver (the same forces bit for bit and the same sweep count where they converge) and
+its 2 × 2 eigen-decomposition against LAPACK's (``numpy.linalg.eigh``).
 """
 
 from __future__ import annotations
@@ -156,3 +159,80 @@ def test_lcp_select_is_the_closest_solution(seed: int) -> None:
     wz = M @ z + q
     assert z.min() >= 0 and wz.min() >= -1e-9 * np.abs(q).max()
     assert abs(z @ wz) <= 1e-9 * np.abs(q).max() * np.abs(z).max()
+
+
+# ----------------------------------------------------------------------------- the cone's first sweeps
+@pytest.mark.parametrize("seed", range(200))
+def test_eig_sym2_is_lapacks_decomposition(seed: int) -> None:
+    """λ ascending (clipped at 0) and orthonormal eigenvectors with Q diag(λ) Qᵀ = the matrix,
+    as numpy.linalg.eigh gives them (eigenvectors up to sign); diagonal, repeated and
+    indefinite matrices included."""
+    rng = np.random.default_rng(seed)
+    p, r, s = rng.normal(size=3) * 10.0 ** rng.integers(-6, 3)
+    if seed % 10 == 0:
+        r = 0.0
+    elif seed % 10 == 1:
+        s = p
+    M = np.array([[p, r], [r, s]])
+    lam, Q = cone._eig_sym2(p, r, s)
+    want, V = np.linalg.eigh(M)
+    scale = max(np.abs(want).max(), 1e-300)
+    np.testing.assert_allclose(lam, np.maximum(want, 0.0), rtol=0, atol=4e-16 * scale)
+    np.testing.assert_allclose(Q.T @ Q, np.eye(2), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(Q @ np.diag(want) @ Q.T, M, rtol=0, atol=8e-16 * scale)
+    if abs(want[1] - want[0]) > 1e-6 * scale:  # distinct eigenvalues: the same vectors up to sign
+        for c in range(2):
+            assert abs(abs(Q[:, c] @ V[:, c]) - 1.0) <= 1e-9
+
+
+def _cone_problems() -> list[tuple[np.ndarray, np.ndarray, float, np.ndarray]]:
+    """Landings of a box on 2–3 corners whose impact cone the active-set guess cannot answer
+    (``IMPACT_CONE``), with a warm start (the impulses of a similar landing)."""
+    out = []
+    for seed in range(400):
+        R, r, _, _, bvel = _problem(seed)
+        if r.shape[0] < 2:
+            continue
+        for mu in (0.2, 0.6):
+            stage, A, q, _ = kernel.impact_impulses(
+                R, INERTIA_INV, MASS, r, bvel, 0.0, mu, np.zeros(r.shape[0])
+            )
+            if stage == kernel.IMPACT_CONE:
+                warm = np.random.default_rng(seed).uniform(0.0, 1.0, q.size) * np.abs(q).max() * MASS
+                out.append((A, q, mu, warm))
+    return out
+
+
+CONE_PROBLEMS = _cone_problems()
+
+
+def test_there_are_cone_problems() -> None:
+    assert len(CONE_PROBLEMS) >= 20
+
+
+@pytest.mark.parametrize("i", range(20))
+def test_first_sweeps_are_the_cone_solvers(i: int) -> None:
+    """Converged within the first sweeps: the general solver's forces bit for bit and its sweep
+    count; not converged: the general solver needed more (it polishes from sweep 25 on)."""
+    A, q, mu, warm = CONE_PROBLEMS[i]
+    k = q.size // 3
+    conv, sweeps, f = cone.cone_first_sweeps(A, q, np.full(k, mu), warm, 1e-13)
+    res = cone.solve_friction_cone(A, q, mu, tol=1e-13, max_iter=20000, warm_start=warm)
+    assert res.converged
+    if conv:
+        assert sweeps == res.iterations < cone.POLISH_EVERY
+        np.testing.assert_array_equal(f, res.f)
+        r6 = cone.friction_residuals(f, A @ f + q, np.full(k, mu))
+        fs = np.abs(f).max()
+        assert r6["signorini_f"] <= 1e-12 * fs and r6["cone"] <= 1e-12 * fs
+    else:
+        assert res.iterations >= cone.POLISH_EVERY
+
+
+def test_some_first_sweeps_converge_and_some_do_not() -> None:
+    """The set above exercises both branches."""
+    done = [
+        bool(cone.cone_first_sweeps(A, q, np.full(q.size // 3, mu), warm, 1e-13)[0])
+        for A, q, mu, warm in CONE_PROBLEMS[:20]
+    ]
+    assert any(done) and not all(done)
