@@ -306,6 +306,8 @@ def guard_record(
         "best_rule_f1": float(best_rule_f1),
         "beats_rules": bool(lo > best_rule_f1),
         "robust_outcomes": robust,
+        # outcomes that differed between machines: none until another machine's file is merged in
+        "machine_flips": [],
         "measured": [measured],
     }
 

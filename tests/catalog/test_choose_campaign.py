@@ -184,7 +184,10 @@ def test_choose_page_opens_with_a_verdict_and_the_settings() -> None:
     report = Path(__file__).resolve().parents[2] / "reports" / "tradeoff_sp1"
     page = (report / "index.html").read_text()
     head = page[: page.index("<h2>Pareto front")]
-    assert 'id="verdict"' in head and "Recommended: <b>reference" in head
+    import json
+
+    rec = json.loads((report / "tradeoff.json").read_text())["recommendation"]
+    assert 'id="verdict"' in head and f"Recommended: <b>{rec['engine']} {rec['settings']}</b>" in head
     assert "Disagreement beyond tolerance" in head
     with (report / "settings.csv").open() as fh:
         failed = [r["settings"] for r in csv.DictReader(fh) if int(r["n_failed"])]

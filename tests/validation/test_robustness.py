@@ -251,6 +251,7 @@ def test_guard_record_pins_the_robust_tests_and_bounds_f1_by_the_fragile_ones() 
     # robust TP 2; fragile 3 (toppled) and 5 (stood): worst 2·2/(4 + 1 + 1) = 2/3, best 2·3/6 = 1
     assert g["f1_range"] == pytest.approx([2 / 3, 1.0])
     assert g["beats_rules"] is True and g["measured"] == [{"date": "d"}]
+    assert g["machine_flips"] == []  # one machine: none yet (a merge fills it in)
 
 
 def test_merge_unites_fragile_tests_and_marks_robust_outcomes_that_moved_with_the_machine() -> None:
