@@ -2599,6 +2599,36 @@ def step_block(
 IMPACT_DONE, IMPACT_CONE, IMPACT_SELECT, IMPACT_REVERTED = 0, 1, 2, 3
 
 
+@njit(cache=True, inline="always")
+def _normal_problem(A, q, j):
+    """The normal LCP of eq. 3.5 with the tangential impulses of ``j`` (3k,) held fixed:
+    (q_n (k,) = q_n + A_nt j_t, A_nn (k, k))."""
+    k = q.size // 3
+    qn = np.empty(k)
+    Ann = np.empty((k, k))
+    for i in range(k):
+        s = q[3 * i]
+        for c in range(k):
+            s += A[3 * i, 3 * c + 1] * j[3 * c + 1] + A[3 * i, 3 * c + 2] * j[3 * c + 2]
+            Ann[i, c] = A[3 * i, 3 * c]
+        qn[i] = s
+    return qn, Ann
+
+
+@njit(cache=True, inline="always")
+def _outside_cone(j, jn, mu_s):
+    """Whether a tangential impulse of ``j`` (3k,) leaves its cone μ_s jn (``jn`` (k,) the normal
+    impulses), beyond 1e-9 relative and 1e-12 of the largest tangential impulse."""
+    k = jn.size
+    jt_max = 0.0
+    for i in range(k):
+        jt_max = max(jt_max, math.hypot(j[3 * i + 1], j[3 * i + 2]))
+    for i in range(k):
+        if math.hypot(j[3 * i + 1], j[3 * i + 2]) > mu_s * jn[i] * (1 + 1e-9) + 1e-12 * jt_max:
+            return True
+    return False
+
+
 @njit(cache=True)
 def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
     """The impulses of an eq. 3.5 impact on k hull contacts, when they take the fast path.
@@ -2662,14 +2692,7 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
         )
         if not ok:
             return IMPACT_CONE, A, q, j
-    qn = np.empty(k)
-    Ann = np.empty((k, k))
-    for i in range(k):
-        s = q[3 * i]
-        for c in range(k):
-            s += A[3 * i, 3 * c + 1] * j[3 * c + 1] + A[3 * i, 3 * c + 2] * j[3 * c + 2]
-            Ann[i, c] = A[3 * i, 3 * c]
-        qn[i] = s
+    qn, Ann = _normal_problem(A, q, j)
     unique, zn = lcp_unique(Ann, qn)
     if not unique:
         # a singular A_nn (a flat landing): the solution closest to ``ref``, when the solution
@@ -2677,13 +2700,8 @@ def impact_impulses(R, inertia_inv, mass, r, bvel, e, mu_s, ref):
         unique, zn = lcp_select(Ann, qn, ref)
         if not unique:
             return IMPACT_SELECT, A, q, j
-    if mu_s > 0:
-        jt_max = 0.0
-        for i in range(k):
-            jt_max = max(jt_max, math.hypot(j[3 * i + 1], j[3 * i + 2]))
-        for i in range(k):
-            if math.hypot(j[3 * i + 1], j[3 * i + 2]) > mu_s * zn[i] * (1 + 1e-9) + 1e-12 * jt_max:
-                return IMPACT_REVERTED, A, q, j
+    if mu_s > 0 and _outside_cone(j, zn, mu_s):
+        return IMPACT_REVERTED, A, q, j
     for i in range(k):
         j[3 * i] = zn[i]
     return IMPACT_DONE, A, q, j
@@ -2698,14 +2716,7 @@ def impact_cone_normals(A, q, j, mu_s):
     ``j`` untouched, the caller selects among the solutions from q_n and A_nn
     (:meth:`dynamics.RigidBodySolver._impact_normals`)."""
     k = q.size // 3
-    qn = np.empty(k)
-    Ann = np.empty((k, k))
-    for i in range(k):
-        s = q[3 * i]
-        for c in range(k):
-            s += A[3 * i, 3 * c + 1] * j[3 * c + 1] + A[3 * i, 3 * c + 2] * j[3 * c + 2]
-            Ann[i, c] = A[3 * i, 3 * c]
-        qn[i] = s
+    qn, Ann = _normal_problem(A, q, j)
     unique, zn = lcp_unique(Ann, qn)
     if not unique:
         return False, False, qn, Ann
@@ -2713,19 +2724,12 @@ def impact_cone_normals(A, q, j, mu_s):
     for i in range(k):
         jn_cone[i] = j[3 * i]
         j[3 * i] = zn[i]
-    reverted = False
-    if mu_s > 0:
-        # the re-selection moves normal impulse only within null(A_nn) (no change of motion);
-        # kept only if every tangential impulse stays inside its cone
-        jt_max = 0.0
+    # the re-selection moves normal impulse only within null(A_nn) (no change of motion); kept
+    # only if every tangential impulse stays inside its cone
+    reverted = mu_s > 0 and _outside_cone(j, zn, mu_s)
+    if reverted:
         for i in range(k):
-            jt_max = max(jt_max, math.hypot(j[3 * i + 1], j[3 * i + 2]))
-        for i in range(k):
-            if math.hypot(j[3 * i + 1], j[3 * i + 2]) > mu_s * j[3 * i] * (1 + 1e-9) + 1e-12 * jt_max:
-                reverted = True
-        if reverted:
-            for i in range(k):
-                j[3 * i] = jn_cone[i]
+            j[3 * i] = jn_cone[i]
     return True, reverted, qn, Ann
 
 
