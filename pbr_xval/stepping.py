@@ -268,6 +268,16 @@ class Recorder:
             self._cos_rest = math.cos(REST_TILT_FRACTION * alpha_min)
             self._rest_hold = REST_HOLD_SAMPLES * self._out_dt
 
+    def uplift_due(self, rot: np.ndarray) -> bool:
+        """Whether the body rotation ``rot`` (3, 3) is tilted past the uplift line while the first
+        uplift is not yet recorded: a loop that records only some steps records this one, so that
+        the ``uplift`` event is dated at its step (as :meth:`record_block` dates it)."""
+        if self._uplifted:
+            return False
+        zx, zy, zz = self._z0l
+        r = rot[2]
+        return bool(r[0] * zx + r[1] * zy + r[2] * zz < self._cos_uplift)
+
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
         """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
         return np.asarray(rot, dtype=float) @ self._r0t

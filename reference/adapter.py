@@ -987,7 +987,8 @@ class ReferenceEngine(EngineBase):
                 com_rel = self._rel_com(state, pedestal, t)
                 last = t >= duration - 1e-12 * dt_nom
                 # the Recorder (toppling criterion, NaN/explosion, sampling) is consulted at
-                # every output time and at every step once the rock is near toppling
+                # every output time, at every step once the rock is near toppling and at the
+                # step of the first uplift (its event dated there, as in the blocks)
                 # toppling.stop_at_rest on this step's row, as Recorder.record_block applies it
                 # to the rows of a block (Recorder.record, below, does not)
                 rest_stop = (
@@ -1004,6 +1005,7 @@ class ReferenceEngine(EngineBase):
                     or rest_stop
                     or t >= next_out - 1e-9 * dt_nom
                     or guard(com_rel, state.R)
+                    or rec.uplift_due(state.R)
                     or not np.isfinite(state.x).all()
                 ):
                     while next_out <= t + 1e-9 * dt_nom:
