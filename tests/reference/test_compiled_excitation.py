@@ -17,7 +17,7 @@ from pbr_xval.reference import adapter, dynamics, kernel
 from pbr_xval.runner import run_scene
 from pbr_xval.scene import compile_scene
 
-_TIMING = adapter.TIMING_DIAGNOSTICS  # timings, not results
+from .conftest import assert_same_run
 
 
 def _record(seed: int, n: int = 400, dt: float = 0.01, t0: float = 0.0, amp: float = 4.0) -> Record:
@@ -106,10 +106,4 @@ def test_step_backs_in_blocks_equal_python_path(monkeypatch, exc, duration, sett
     assert sum(rejected) > 0.5 * compiled.diagnostics["stepbacks"]
     if compiled.diagnostics["impacts"] > 1:
         assert sum(later_impacts) > 0  # impacts resolved after a block's first step
-    assert compiled.status == table.status
-    for name in ("t", "com", "quat", "omega"):
-        np.testing.assert_array_equal(getattr(compiled, name), getattr(table, name))
-    assert [(e.kind, e.t) for e in compiled.events] == [(e.kind, e.t) for e in table.events]
-    dc = {k: v for k, v in compiled.diagnostics.items() if k not in _TIMING}
-    dt = {k: v for k, v in table.diagnostics.items() if k not in _TIMING}
-    assert dc == dt
+    assert_same_run(compiled, table)

@@ -17,6 +17,8 @@ from pbr_xval.engine import get_engine
 from pbr_xval.runner import run_scene
 from pbr_xval.scene import compile_scene
 
+from .conftest import sp1_test_scene
+
 G = 9.81
 
 
@@ -420,28 +422,7 @@ def test_no_stepback_cascade_on_sp1_test18():
     """SP1 test 18 (0.1 g, the rock standing): before the band tolerance it cascaded into
     45,713 step-backs and 3,802 steps accepted at the limit by t = 23.6 s (and ran on for
     minutes); now a few band projections of ~1e-9 m and a few seconds of CPU."""
-    import tempfile
-    from pathlib import Path
-
-    import pytest
-
-    from pbr_xval.catalog.tasks import scenario_dict
-    from pbr_xval.scenario import load_scenario, scenario_from_dict
-    from pbr_xval.validation.campaign import Baseline, load_campaign
-    from pbr_xval.validation.execution import build_validation_chunks, prepare_motions
-
-    root = Path(__file__).resolve().parents[2]
-    data = root.parent / "shared" / "data" / "shake_table"
-    if not (data / "experiments.csv").is_file():
-        pytest.skip("the shared shake-table data is not beside the checkout")
-    camp = load_campaign(data, 1).select(["18"])
-    scn = load_scenario(root / "examples" / "validation" / "sp1.toml")
-    with tempfile.TemporaryDirectory() as tmp:
-        motions = prepare_motions(camp, Baseline(), Path(tmp))
-        (chunk,) = build_validation_chunks(camp, motions, scn, ["reference"])
-        m = chunk.motions[0]
-        scene = compile_scene(scenario_from_dict(scenario_dict(chunk, m, chunk.rock["friction_min"], 1)))
-        traj = run_scene(scene, "reference")
+    traj = run_scene(sp1_test_scene("18"), "reference")
     d = traj.diagnostics
     assert traj.ok, traj.message
     assert not traj.toppled  # observed: it stood

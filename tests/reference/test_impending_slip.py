@@ -21,8 +21,9 @@ from pbr_xval.reference import cone, dynamics, kernel
 from pbr_xval.runner import run_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_engine import _slab
 from test_lcp import MASS, G, _box_friction_problem, box_inverse_mass
+
+from .test_engine import _slab
 
 DATA = Path(__file__).resolve().parent / "data" / "impending_slip_problems.npz"
 

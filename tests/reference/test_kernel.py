@@ -13,9 +13,10 @@ from scipy.spatial import ConvexHull
 
 from pbr_xval import conformance as conf
 from pbr_xval.reference import kernel
-from pbr_xval.reference.adapter import TIMING_DIAGNOSTICS
 from pbr_xval.runner import run_scene
 from pbr_xval.scene import compile_scene
+
+from .conftest import assert_same_run
 
 G = 9.81
 MASS = 460.8  # 2400 kg/m³ · 0.4 · 0.4 · 1.2 m³
@@ -247,7 +248,6 @@ def test_friction_residuals_compiled_equal_numpy() -> None:
 
 
 # ----------------------------------------------------------------------------- many-step path
-_TIMING = TIMING_DIAGNOSTICS  # timings, not results
 
 
 @pytest.mark.parametrize(
@@ -279,11 +279,4 @@ def test_step_block_equals_step_by_step(monkeypatch, amplitude, duration, settin
         assert len(in_block) >= 4
     monkeypatch.setattr(ref_engine, "BLOCK_STEPS", 0)
     single = run_scene(scene, "reference", settings)
-    assert blocked.status == single.status
-    assert blocked.toppled == single.toppled
-    for name in ("t", "com", "quat", "omega"):
-        np.testing.assert_array_equal(getattr(blocked, name), getattr(single, name))
-    assert [(e.kind, e.t) for e in blocked.events] == [(e.kind, e.t) for e in single.events]
-    db = {k: v for k, v in blocked.diagnostics.items() if k not in _TIMING}
-    ds = {k: v for k, v in single.diagnostics.items() if k not in _TIMING}
-    assert db == ds
+    assert_same_run(blocked, single)
