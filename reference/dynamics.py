@@ -827,9 +827,10 @@ class RigidBodySolver:
         if res_ok:
             j[0::3] = zn
             # the re-selection moves normal impulse only within null(A_nn) (no change of
-            # motion); keep it only if every tangential impulse stays inside its cone
-            jt_norm = np.hypot(j[1::3], j[2::3])
-            if self.mu_s > 0 and np.any(jt_norm > self.mu_s * j[0::3] * (1 + 1e-9) + 1e-12 * jt_norm.max()):
+            # motion); keep it only if every tangential impulse stays inside its cone (the
+            # check of the compiled stages, kernel._outside_cone)
+            zc = np.ascontiguousarray(zn, dtype=float)
+            if self.mu_s > 0 and kernel._outside_cone(j, zc, float(self.mu_s)):
                 j[0::3] = jn_cone
                 self.stats.selection_reverted += 1
         else:

@@ -236,3 +236,35 @@ def test_some_first_sweeps_converge_and_some_do_not() -> None:
         for A, q, mu, warm in CONE_PROBLEMS[:20]
     ]
     assert any(done) and not all(done)
+
+
+@pytest.mark.parametrize(("jt", "reverted"), [(0.01, False), (5.0, True)])
+def test_impact_normals_selection_keeps_or_reverts_by_the_cone(jt: float, reverted: bool) -> None:
+    """A flat landing on four corners (A_nn singular: no unique normal LCP, so the Python
+    selection answers): the selected normal impulses replace the cone's when every tangential
+    impulse stays in its cone (here a small one on corner 0) and are put back — counted as
+    reverted — when one leaves it (a tangential impulse of 5 N s against μ_s = 0.6 times the
+    ~4 N s a corner gets)."""
+    from types import SimpleNamespace
+
+    from pbr_xval.reference import dynamics
+
+    r = CORNERS.copy()
+    bvel = np.tile([-0.1, 0.0, 0.0], 4)  # every corner lands at 0.1 m/s, no slip
+    _, A, q, _ = kernel.impact_impulses(np.eye(3), INERTIA_INV, MASS, r, bvel, 0.0, 0.6, np.zeros(4))
+    j = np.zeros(12)
+    j[1] = jt
+    jn_cone = np.array([10.0, 3.0, 3.0, 3.0])  # the cone solver's normal impulses (any)
+    j[0::3] = jn_cone
+    solver = SimpleNamespace(mu_s=0.6, selection="min_norm", method="dantzig", stats=dynamics.ContactStats())
+    dynamics.RigidBodySolver._impact_normals(solver, A, q, j, np.zeros(12))
+    assert solver.stats.selection_reverted == int(reverted)
+    assert j[1] == jt and not j[2::3].any()  # the tangential impulses are held fixed
+    if reverted:
+        np.testing.assert_array_equal(j[0::3], jn_cone)
+    else:
+        zn = j[0::3]
+        assert (zn >= 0).all() and not np.allclose(zn, jn_cone)
+        assert np.hypot(j[1], j[2]) <= 0.6 * zn[0]
+        # the selected normal impulses stop the landing: every corner's normal velocity ≥ 0
+        assert ((A @ j + q)[0::3] >= -1e-12).all()
