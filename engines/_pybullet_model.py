@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pbr_xval.engine import NotApplicable
+from pbr_xval.linalg3 import mat3_mul, mat3_vec, principal_axes, rows_mul
 from pbr_xval.quaternions import matrix_to_quat
 
 from ._common import collision_parts, write_obj
@@ -82,10 +83,7 @@ def principal_frame(inertia: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     off = np.abs(i - np.diag(np.diag(i))).max()
     if off <= 1e-12 * np.trace(i):
         return np.diag(i).copy(), np.eye(3)
-    lam, vec = np.linalg.eigh(i)
-    if np.linalg.det(vec) < 0:
-        vec[:, 2] = -vec[:, 2]
-    return lam, vec
+    return principal_axes(i)  # without LAPACK: the same bits on every CPU (pbr_xval.linalg3)
 
 
 def rock_shape(p: Any, cid: int, scene: Scene, s: Mapping[str, Any], rot0: np.ndarray) -> tuple[int, dict]:
@@ -101,26 +99,26 @@ def rock_shape(p: Any, cid: int, scene: Scene, s: Mapping[str, Any], rot0: np.nd
         sid = p.createCollisionShape(
             p.GEOM_BOX,
             halfExtents=[float(x) for x in rock.primitive["half_extents"]],
-            collisionFramePosition=(rt @ (centre - com)).tolist(),
-            collisionFrameOrientation=xyzw(rt @ rock.rotation),
+            collisionFramePosition=mat3_vec(rt, centre - com).tolist(),
+            collisionFrameOrientation=xyzw(mat3_mul(rt, rock.rotation)),
             physicsClientId=cid,
         )
         return sid, {"collision": "primitive", "n_parts": 1}
     if choice == "boxes":
         if not rock.box_parts:
             raise NotApplicable(f"pybullet: collision 'boxes' needs a rock made of boxes, got {rock.shape!r}")
-        q = xyzw(rt @ rock.rotation)
+        q = xyzw(mat3_mul(rt, rock.rotation))
         n = len(rock.box_parts)
         sid = p.createCollisionShapeArray(
             shapeTypes=[p.GEOM_BOX] * n,
             halfExtents=[[float(x) for x in he] for _, he in rock.box_parts],
-            collisionFramePositions=[(rt @ (np.asarray(c) - com)).tolist() for c, _ in rock.box_parts],
+            collisionFramePositions=[mat3_vec(rt, np.asarray(c) - com).tolist() for c, _ in rock.box_parts],
             collisionFrameOrientations=[q] * n,
             physicsClientId=cid,
         )
         return sid, {"collision": "boxes", "n_parts": n}
     if choice == "hull":
-        verts = (parts[0][0] - com) @ rot0  # rows: rt @ (v - com)
+        verts = rows_mul(parts[0][0] - com, rot0)  # rows: rt @ (v - com), no BLAS
         sid = p.createCollisionShape(p.GEOM_MESH, vertices=verts.tolist(), physicsClientId=cid)
         return sid, {"collision": "hull", "n_parts": 1, "hull_vertices": len(verts)}
     # several (convex) parts: createCollisionShapeArray has no vertex arrays, so OBJ files;
@@ -131,7 +129,7 @@ def rock_shape(p: Any, cid: int, scene: Scene, s: Mapping[str, Any], rot0: np.nd
         shapeTypes=[p.GEOM_MESH] * n,
         fileNames=[str(f) for f in files],
         meshScales=[[1.0, 1.0, 1.0]] * n,
-        collisionFramePositions=[(-(rt @ com)).tolist()] * n,
+        collisionFramePositions=[(-mat3_vec(rt, com)).tolist()] * n,
         collisionFrameOrientations=[xyzw(rt)] * n,
         physicsClientId=cid,
     )

@@ -34,6 +34,7 @@ from pbr_xval.engine import (
     import_engine_package,
 )
 from pbr_xval.engines._common import COLLISION_CHOICES, cached_model, check_choices, collision_parts
+from pbr_xval.linalg3 import mat3_vec, principal_axes
 from pbr_xval.stepping import GROUND_MODES, StepBlock, StepperBase, fail, failed_trajectory, run_steps
 
 if TYPE_CHECKING:
@@ -219,10 +220,8 @@ class MuJoCoEngine(EngineBase):
         com = np.asarray(rock.com, dtype=float)
         body = spec.worldbody.add_body(name="rock", pos=com.tolist())
         body.add_freejoint(name="rock")
-        inertia = 0.5 * (np.asarray(rock.inertia, dtype=float) + np.asarray(rock.inertia, dtype=float).T)
-        evals, evecs = np.linalg.eigh(inertia)
-        if np.linalg.det(evecs) < 0:
-            evecs[:, 2] = -evecs[:, 2]
+        # principal axes without LAPACK: the same bits on every CPU (pbr_xval.geometry.portable)
+        evals, evecs = principal_axes(np.asarray(rock.inertia, dtype=float))
         body.mass = float(rock.mass)
         body.ipos = [0.0, 0.0, 0.0]
         body.iquat = _mat_to_quat(evecs)
@@ -326,7 +325,7 @@ class _MjStepper(StepperBase):
         self.pos[:] = com
         self.quat[:] = _mat_to_quat(rot)
         self.vlin[:] = vel
-        self.wbody[:] = rot.T @ omega
+        self.wbody[:] = mat3_vec(np.asarray(rot, dtype=float).T, omega)
 
     def settle(self, n: int) -> None:
         mj, m, d = self.mj, self.m, self.d
@@ -389,8 +388,12 @@ class _MjStepper(StepperBase):
             if moving:
                 block.com[:n, : self.npj] -= qb[:n, self.pq : self.pq + self.npj]
             rot = block.rot[:n] = quaternions.quats_to_mats(qb[:n, qa + 3 : qa + 7])
-            # ω in the pedestal frame = R ω_body, one stacked product per block
-            block.omega[:n] = np.matmul(rot.reshape(n, 3, 3), vb[:n, va + 3 : va + 6, None])[:, :, 0]
+            # ω in the pedestal frame = R ω_body, element-wise (no BLAS: the same bits on every CPU)
+            wb = vb[:n, va + 3 : va + 6]
+            for r in range(3):
+                block.omega[:n, r] = (
+                    rot[:, 3 * r] * wb[:, 0] + rot[:, 3 * r + 1] * wb[:, 1] + rot[:, 3 * r + 2] * wb[:, 2]
+                )
 
     def end(self) -> None:
         if self.moving:

@@ -31,6 +31,7 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
+from pbr_xval.linalg3 import mat3_mul, norm3
 from pbr_xval.stepping import (
     GROUND_MODES,
     StepBlock,
@@ -273,7 +274,7 @@ class _PbStepper(StepperBase):
     def set_initial(self, com: np.ndarray, rot: np.ndarray, vel: np.ndarray, omega: np.ndarray) -> None:
         p, cid = self.p, self.cid
         p.resetBasePositionAndOrientation(
-            self.body, com.tolist(), xyzw(rot @ self.rest_rotation), physicsClientId=cid
+            self.body, com.tolist(), xyzw(mat3_mul(rot, self.rest_rotation)), physicsClientId=cid
         )
         p.resetBaseVelocity(self.body, vel.tolist(), omega.tolist(), physicsClientId=cid)
 
@@ -293,9 +294,7 @@ class _PbStepper(StepperBase):
         p, cid = self.p, self.cid
         pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=cid)
         v, w = p.getBaseVelocity(self.body, physicsClientId=cid)
-        speed = float(np.linalg.norm(v)) + float(np.linalg.norm(w)) * float(
-            np.ptp(self.scene.rock.mesh.vertices)
-        )
+        speed = norm3(v) + norm3(w) * float(np.ptp(self.scene.rock.mesh.vertices))
         return np.array(pos), np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3), speed
 
     def begin(self, n: int) -> None:

@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from pbr_xval.linalg3 import mat3_mul, norm3
+
 __all__ = [
     "axis_angle_quat",
     "matrices_to_quats",
@@ -52,7 +54,7 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
 def axis_angle_quat(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
     """Quaternions (n, 4), scalar first, for rotations by ``angle`` (n,) rad about a unit ``axis`` (3,)."""
     angle = np.asarray(angle, dtype=float)
-    axis = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    axis = np.asarray(axis, dtype=float) / norm3(axis)
     half = 0.5 * angle
     q = np.empty((angle.size, 4))
     q[:, 0] = np.cos(half)
@@ -79,7 +81,7 @@ def matrix_to_quat(r: np.ndarray) -> np.ndarray:
     qa = np.array(q)
     if qa[0] < 0:
         qa = -qa
-    return qa / np.linalg.norm(qa)
+    return qa / math.sqrt(qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3])
 
 
 def matrices_to_quats(r: np.ndarray) -> np.ndarray:
@@ -115,7 +117,8 @@ def matrices_to_quats(r: np.ndarray) -> np.ndarray:
                 sq = 2.0 * np.sqrt(np.maximum(1.0 + r22 - r00 - r11, 0.0))
                 q[sel] = np.stack([d10 / sq, s02 / sq, s12 / sq, 0.25 * sq], axis=1)
     q[q[:, 0] < 0] *= -1.0
-    return q / np.linalg.norm(q, axis=1, keepdims=True)
+    # |q| per row summed left to right (element-wise: the same bits whatever the SIMD width)
+    return q / np.sqrt(q[:, 0] * q[:, 0] + q[:, 1] * q[:, 1] + q[:, 2] * q[:, 2] + q[:, 3] * q[:, 3])[:, None]
 
 
 def quats_to_mats(q: np.ndarray) -> np.ndarray:
@@ -140,6 +143,6 @@ def quats_to_mats(q: np.ndarray) -> np.ndarray:
 
 def rotation_about(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation matrix (3, 3) for ``angle`` rad about the unit ``axis`` (3,) (Rodrigues)."""
-    a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    a = np.asarray(axis, dtype=float) / norm3(axis)
     k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * (k @ k)
+    return np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * mat3_mul(k, k)

@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
+from pbr_xval.linalg3 import eigh3, mat3_mul, mat3_vec, norm3, rows_mul
 from pbr_xval.quaternions import matrices_to_quats, matrix_to_quat, quats_to_mats, rotation_about
 from pbr_xval.status import RunStatus
 from pbr_xval.trajectory import Event, Trajectory
@@ -260,7 +261,7 @@ class Recorder:
         if self._rest_on:
             rock = self.scene.rock
             self._rest_m = float(rock.mass)
-            self._rest_i = float(np.linalg.eigvalsh(np.asarray(rock.inertia, dtype=float)).max())
+            self._rest_i = float(eigh3(np.asarray(rock.inertia, dtype=float))[0].max())
             self._rest_g = float(self.scene.gravity)
             h_g = max(float(self._com0[2]), 0.0)
             barrier = self._rest_m * self._rest_g * h_g * (1.0 / math.cos(min(alpha_min, 1.5)) - 1.0)
@@ -280,7 +281,7 @@ class Recorder:
 
     def relative_rotation(self, rot: np.ndarray) -> np.ndarray:
         """Rotation (3, 3) relative to the rest pose recorded by :meth:`start`."""
-        return np.asarray(rot, dtype=float) @ self._r0t
+        return mat3_mul(np.asarray(rot, dtype=float), self._r0t)
 
     def record(
         self,
@@ -343,7 +344,7 @@ class Recorder:
             self._outward = cos_tilt <= self._prev_cos
             self._prev_cos = cos_tilt
         elif not self._toppled and (cos_tilt < self._cos_fast or self._by_distance):
-            rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+            rel = mat3_mul(np.asarray(r, dtype=float).reshape(3, 3), self._r0t)
             if self.scene.is_toppled(np.asarray(c), rel):
                 self._toppled = True
                 self.events.append(Event("toppled", t, {"rule": "first crossing"}))
@@ -560,7 +561,7 @@ class Recorder:
         """
         if c[2] < 0.0:
             return self._decide(t, "down: the centre of mass dropped below the pedestal top")
-        rel = np.asarray(r, dtype=float).reshape(3, 3) @ self._r0t
+        rel = mat3_mul(np.asarray(r, dtype=float).reshape(3, 3), self._r0t)
         past = self.scene.past_critical(rel)
         if past and not self._past:
             self._t_cross = t
@@ -611,7 +612,7 @@ class Recorder:
             diag["stopped_at_rest_s"] = self.stopped_at_rest
         diag.update(diagnostics or {})
         n = self._n
-        rel = self._R[:n].reshape(n, 3, 3) @ self._r0t
+        rel = rows_mul(self._R[:n].reshape(3 * n, 3), self._r0t).reshape(n, 3, 3)  # R R0ᵀ, no BLAS
         traj = Trajectory(
             engine=engine,
             t=self._T[:n].copy(),
@@ -655,19 +656,21 @@ def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
     hv = hull_vertices(scene.rock.mesh.vertices)
     sp = support_points(hv)
-    x = (sp - com) @ d
+    q = sp - com
+    x = q[:, 0] * d[0] + q[:, 1] * d[1] + q[:, 2] * d[2]  # (sp − com)·d, element-wise (no BLAS)
     side = 1.0 if (th > 0 or (th == 0 and om > 0)) else -1.0
     px = x.max() if side > 0 else x.min()
     pivot = com + px * d
     pivot[2] = sp[:, 2].min()
     rot = rotation_about(e, th)
-    com_t = pivot + rot @ (com - pivot)
-    z = com_t[2] + (hv - com) @ rot[2]
+    com_t = pivot + mat3_vec(rot, com - pivot)
+    q = hv - com
+    z = com_t[2] + (q[:, 0] * rot[2, 0] + q[:, 1] * rot[2, 1] + q[:, 2] * rot[2, 2])  # (hv − com)·rot[2]
     lift = pivot[2] - float(z.min())
     if lift > 1e-9 * max(1.0, float(np.ptp(hv))):
         k = int(np.argmin(z))
         com_t = com_t + np.array([0.0, 0.0, lift])
-        pivot = com_t + rot @ (hv[k] - com)
+        pivot = com_t + mat3_vec(rot, hv[k] - com)
     omega = om * e
     vel = np.cross(omega, com_t - pivot)
     return com_t, rot, vel, omega
@@ -772,7 +775,7 @@ class StepperBase:
     @staticmethod
     def speed(v: Any, w: Any, scene: Scene) -> float:
         """Speed bound |v| + |ω|·size (m/s) from COM velocity (3,) m/s and ω (3,) rad/s."""
-        return float(np.linalg.norm(v)) + float(np.linalg.norm(w)) * float(np.ptp(scene.rock.mesh.vertices))
+        return norm3(v) + norm3(w) * float(np.ptp(scene.rock.mesh.vertices))
 
 
 def failed_trajectory(engine: str, scene: Scene, message: str, settings: Any, versions: Any) -> Trajectory:
@@ -861,7 +864,7 @@ def run_steps(
             diag["settle_steps"] = nset
             com, rot, speed = stepper.state()
             size = float(np.ptp(scene.rock.mesh.vertices))
-            moved = float(np.linalg.norm(np.asarray(com) - scene.rock.com))
+            moved = norm3(np.asarray(com, dtype=float) - scene.rock.com)
             if (
                 not (np.all(np.isfinite(rot)) and math.isfinite(moved))
                 or moved > rec.explode_factor * size

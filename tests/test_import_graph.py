@@ -45,6 +45,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
             "pbr_xval.tomlio",
             "pbr_xval.lifeline",
             "pbr_xval.quaternions",
+            "pbr_xval.linalg3",
             "pbr_xval.machine",
             "pbr_xval.console",
         ),
