@@ -220,7 +220,7 @@ class MuJoCoEngine(EngineBase):
         com = np.asarray(rock.com, dtype=float)
         body = spec.worldbody.add_body(name="rock", pos=com.tolist())
         body.add_freejoint(name="rock")
-        # principal axes without LAPACK: the same bits on every CPU (pbr_xval.geometry.portable)
+        # principal axes without LAPACK: the same bits on every CPU (pbr_xval.linalg3)
         evals, evecs = principal_axes(np.asarray(rock.inertia, dtype=float))
         body.mass = float(rock.mass)
         body.ipos = [0.0, 0.0, 0.0]
