@@ -31,7 +31,7 @@ from pbr_xval.engine import (
     Trajectory,
     import_engine_package,
 )
-from pbr_xval.linalg3 import mat3_mul, norm3
+from pbr_xval.linalg3 import mat3_mul
 from pbr_xval.stepping import (
     GROUND_MODES,
     StepBlock,
@@ -294,7 +294,7 @@ class _PbStepper(StepperBase):
         p, cid = self.p, self.cid
         pos, orn = p.getBasePositionAndOrientation(self.body, physicsClientId=cid)
         v, w = p.getBaseVelocity(self.body, physicsClientId=cid)
-        speed = norm3(v) + norm3(w) * float(np.ptp(self.scene.rock.mesh.vertices))
+        speed = self.speed(v, w, self.scene)
         return np.array(pos), np.array(p.getMatrixFromQuaternion(orn)).reshape(3, 3), speed
 
     def begin(self, n: int) -> None:

@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["det3", "eigh3", "mat3_mul", "mat3_vec", "norm3", "principal_axes", "rows_mul"]
+__all__ = ["det3", "eigh3", "mat3_mul", "mat3_vec", "norm3", "principal_axes", "rows_dot", "rows_mul"]
 
 #: cyclic Jacobi sweeps at most (a symmetric 3 × 3 converges quadratically, in 3–6 sweeps)
 _MAX_SWEEPS = 64
@@ -138,17 +138,30 @@ def mat3_vec(a: ArrayLike, x: ArrayLike) -> NDArray[np.float64]:
     return np.array([m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2] for i in range(3)], dtype=np.float64)
 
 
-def rows_mul(p: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
-    """p @ a for points p (n, 3) and a 3 × 3 matrix, without BLAS: column j is
-    p[:, 0] a[0, j] + p[:, 1] a[1, j] + p[:, 2] a[2, j], element-wise IEEE operations (NumPy's
-    multiply and add are exactly rounded per element whatever the SIMD width)."""
+def _points(p: ArrayLike) -> NDArray[np.float64]:
     pts = np.asarray(p, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise ValueError(f"expected points of shape (n, 3), got {pts.shape}")
+    return pts
+
+
+def rows_dot(p: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """p @ v for points p (n, 3) and a (3,) vector, without BLAS: p[:, 0] v[0] + p[:, 1] v[1] +
+    p[:, 2] v[2], element-wise IEEE operations (NumPy's multiply and add are exactly rounded per
+    element whatever the SIMD width)."""
+    pts = _points(p)
+    x, y, z = (float(c) for c in np.asarray(v, dtype=np.float64).reshape(3).tolist())
+    return pts[:, 0] * x + pts[:, 1] * y + pts[:, 2] * z
+
+
+def rows_mul(p: ArrayLike, a: ArrayLike) -> NDArray[np.float64]:
+    """p @ a for points p (n, 3) and a 3 × 3 matrix, without BLAS: column j is
+    :func:`rows_dot` of p with a[:, j]."""
+    pts = _points(p)
     m = np.asarray(a, dtype=np.float64)
     if m.shape != (3, 3):
         raise ValueError(f"expected a 3 × 3 matrix, got shape {m.shape}")
     out = np.empty_like(pts)
     for j in range(3):
-        out[:, j] = pts[:, 0] * m[0, j] + pts[:, 1] * m[1, j] + pts[:, 2] * m[2, j]
+        out[:, j] = rows_dot(pts, m[:, j])
     return out

@@ -47,7 +47,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from pbr_xval.linalg3 import eigh3, mat3_mul, mat3_vec, norm3, rows_mul
+from pbr_xval.linalg3 import eigh3, mat3_mul, mat3_vec, norm3, rows_dot, rows_mul
 from pbr_xval.quaternions import matrices_to_quats, matrix_to_quat, quats_to_mats, rotation_about
 from pbr_xval.status import RunStatus
 from pbr_xval.trajectory import Event, Trajectory
@@ -656,16 +656,14 @@ def initial_pose(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
     hv = hull_vertices(scene.rock.mesh.vertices)
     sp = support_points(hv)
-    q = sp - com
-    x = q[:, 0] * d[0] + q[:, 1] * d[1] + q[:, 2] * d[2]  # (sp − com)·d, element-wise (no BLAS)
+    x = rows_dot(sp - com, d)  # (sp − com)·d
     side = 1.0 if (th > 0 or (th == 0 and om > 0)) else -1.0
     px = x.max() if side > 0 else x.min()
     pivot = com + px * d
     pivot[2] = sp[:, 2].min()
     rot = rotation_about(e, th)
     com_t = pivot + mat3_vec(rot, com - pivot)
-    q = hv - com
-    z = com_t[2] + (q[:, 0] * rot[2, 0] + q[:, 1] * rot[2, 1] + q[:, 2] * rot[2, 2])  # (hv − com)·rot[2]
+    z = com_t[2] + rows_dot(hv - com, rot[2])
     lift = pivot[2] - float(z.min())
     if lift > 1e-9 * max(1.0, float(np.ptp(hv))):
         k = int(np.argmin(z))

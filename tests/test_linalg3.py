@@ -77,6 +77,7 @@ def test_principal_axes_right_handed_and_products() -> None:
         np.testing.assert_allclose(linalg3.mat3_mul(a, b), a @ b, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(linalg3.mat3_vec(a, x), a @ x, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(linalg3.rows_mul(p, a), p @ a, rtol=1e-14, atol=1e-14)
+        np.testing.assert_allclose(linalg3.rows_dot(p, x), p @ x, rtol=1e-14, atol=1e-14)
         np.testing.assert_allclose(linalg3.det3(a), np.linalg.det(a), rtol=1e-12, atol=1e-12)
         assert linalg3.norm3(x) == pytest.approx(float(np.linalg.norm(x)), rel=1e-15)
     # the fixed order of the sums: element (i, j) is (a_i0 b_0j + a_i1 b_1j) + a_i2 b_2j
