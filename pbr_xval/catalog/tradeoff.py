@@ -15,7 +15,11 @@ The **Pareto front** holds the settings that no other setting beats on both cost
 **recommendation** is the cheapest setting whose Brier is within the stated margin of the best
 setting's: Brier_s − Brier_best ≤ k · SE, where SE is the standard error of the mean paired
 difference d_i = (p_s,i − y_i)² − (p_best,i − y_i)² over the n tests both ran (k = 1 by default).
-A setting with a failed run is scored on the tests it ran but is never recommended.
+Costs are one run's timings: settings within the margin whose costs lie within :data:`COST_TIE`
+of the cheapest one's are equally cheap, and of those the one with the lowest Brier is
+recommended (a timing difference smaller than the timings' repeatability does not pick the less
+accurate setting). A setting with a failed run is scored on the tests it ran but is never
+recommended.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import pandas as pd
 from pbr_xval.atomic import write_text_atomic
 
 __all__ = [
+    "COST_TIE",
     "Setting",
     "brier_f1",
     "candidate_settings",
@@ -42,6 +47,13 @@ __all__ = [
     "run_tradeoff",
     "write_tradeoff",
 ]
+
+
+#: relative cost difference within which two settings count as equally cheap: the repeatability
+#: of a setting's mean wall time per test between two ``choose --campaign`` runs of the same 196 SP1
+#: tests on the same quiet machine (MuJoCo's hull at 1 ms 0.196 and 0.188 s, −4 %; the reference at
+#: 1 ms 0.115 and 0.121 s, +5 %; docs/catalogs.md, "SP1: the committed report")
+COST_TIE = 0.05
 
 
 @dataclass(frozen=True)
@@ -129,14 +141,16 @@ def pareto_front(cost: np.ndarray, brier: np.ndarray) -> np.ndarray:
 
 
 def recommend(
-    table: pd.DataFrame, sq_err: pd.DataFrame, k_se: float = 1.0
+    table: pd.DataFrame, sq_err: pd.DataFrame, k_se: float = 1.0, cost_tie: float = COST_TIE
 ) -> tuple[pd.DataFrame, int | None]:
     """Mark each setting's paired difference to the best Brier and whether it is within k·SE.
 
     ``table``: one row per setting (``brier``, ``cost_s_per_test``, ``n_failed``); ``sq_err``:
     tests × settings (same column order as the rows of ``table``), (p − y)², NaN where not run.
     Returns the table with ``d_brier``, ``se_paired``, ``margin``, ``within`` and the row index
-    of the recommendation (None when no setting qualifies).
+    of the recommendation (None when no setting qualifies): among the settings within the margin
+    whose cost is at most (1 + ``cost_tie``) × the cheapest one's, the lowest Brier (then the
+    lowest cost).
     """
     t = table.copy()
     eligible = (t["n_failed"] == 0) & t["brier"].notna() & t["cost_s_per_test"].notna()
@@ -159,8 +173,10 @@ def recommend(
     t["best"] = False
     t.loc[best, "best"] = True
     cand = t[t["within"]]
-    rec = int(cand.sort_values(["cost_s_per_test", "brier"]).index[0]) if len(cand) else None
-    return t, rec
+    if not len(cand):
+        return t, None
+    cheap = cand[cand["cost_s_per_test"] <= (1.0 + cost_tie) * float(cand["cost_s_per_test"].min())]
+    return t, int(cheap.sort_values(["brier", "cost_s_per_test"], kind="stable").index[0])
 
 
 def run_tradeoff(
@@ -175,6 +191,7 @@ def run_tradeoff(
     workers: int | None = None,
     executor: str = "local",
     k_se: float = 1.0,
+    cost_tie: float = COST_TIE,
     progress: bool = True,
     console: Any = None,
 ) -> dict[str, Any]:
@@ -235,12 +252,13 @@ def run_tradeoff(
         }))  # fmt: skip
     table = pd.DataFrame(summ)
     table["pareto"] = pareto_front(table["cost_s_per_test"].to_numpy(), table["brier"].to_numpy())
-    table, rec = recommend(table, pd.DataFrame(sq), k_se)
+    table, rec = recommend(table, pd.DataFrame(sq), k_se, cost_tie)
     return {
         "table": table,
         "tests": pd.concat(long_parts, ignore_index=True),
         "recommendation": rec,
         "k_se": k_se,
+        "cost_tie": cost_tie,
         "summary": summary.to_dict(),
     }
 
@@ -269,7 +287,8 @@ def choice_lines(res: dict[str, Any]) -> list[str]:
         b = t[t["best"]].iloc[0]
         lines.append(
             f"recommend {r.engine} {r.settings} cost {r.cost_s_per_test:.4g} Brier {r.brier:.4f} F1 {_num(r.f1, '.4f')} "
-            f"(cheapest with Brier within {res['k_se']:g} SE of the paired difference to the best, "
+            f"(cheapest with Brier within {res['k_se']:g} SE of the paired difference to the best, costs within "
+            f"{100 * res.get('cost_tie', COST_TIE):g} % of the cheapest equal and the lower Brier taken, "
             f"{b.engine} {b.settings} Brier {b.brier:.4f}; margin {r.margin:.4f} on {r.n_ok} tests)"
         )
     return lines
@@ -443,7 +462,8 @@ def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict
         **meta,
         "cost": "mean engine wall time per test (simulate only), s, on this machine",
         "brier": "mean (p − y)² with p = 0/1 predicted toppled, y = observed (= error rate)",
-        "margin_rule": f"cheapest setting with Brier − best Brier ≤ {res['k_se']:g} × SE of the mean paired difference of squared errors",
+        "margin_rule": f"cheapest setting with Brier − best Brier ≤ {res['k_se']:g} × SE of the mean paired difference of squared errors; "
+        f"costs within {100 * res.get('cost_tie', COST_TIE):g} % of the cheapest such setting's count as equal (one run's timings), and of those the lowest Brier is taken",
         "settings": json.loads(t.to_json(orient="records")),
         "recommendation": None if i is None else json.loads(t.loc[[i]].to_json(orient="records"))[0],
         "lines": lines,
@@ -484,7 +504,8 @@ th{{background:#f4f4f4}}code{{background:#f4f4f4}}</style></head><body>
 <p>x: mean engine wall time per test, s (the simulation only, on this machine at the load stated above);
 y: Brier score of the 0/1 predictions against the observed outcomes (equal to the error rate).
 The recommendation is the cheapest setting whose Brier exceeds the best by at most {res["k_se"]:g} standard
-error of the mean paired difference of squared errors over the tests both ran; a setting with failed runs is never recommended.</p>
+error of the mean paired difference of squared errors over the tests both ran, costs within {100 * res.get("cost_tie", COST_TIE):g} %
+of the cheapest such setting's counting as equal (one run's timings; of those the lowest Brier is taken); a setting with failed runs is never recommended.</p>
 <img alt="Pareto front, cost vs Brier" src="data:image/png;base64,{img}">
 <h2>Settings</h2>
 {show.to_html(index=False, escape=True, float_format=lambda v: f"{v:.4g}")}

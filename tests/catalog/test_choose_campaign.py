@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pbr_xval.catalog.tradeoff import Setting, brier_f1, candidate_settings, pareto_front, recommend
+from pbr_xval.catalog.tradeoff import COST_TIE, Setting, brier_f1, candidate_settings, pareto_front, recommend
 
 DT = 0.005  # s
 
@@ -86,6 +86,28 @@ def test_pareto_front_and_margin_rule():
     # a setting with a failed run is never recommended
     table.loc[1, "n_failed"] = 1
     assert recommend(table, sq, k_se=1.0)[1] in (2, 4)
+
+
+def test_recommendation_counts_costs_within_the_timing_repeatability_as_equal():
+    """Of the settings within the margin, one whose cost is within COST_TIE of the cheapest one's and
+    whose Brier is lower is recommended (the SP1 report's case: the reference at 2 ms cheaper than at
+    1 ms by 0.2 %, 1 ms better by one error in 20); beyond COST_TIE the cheapest wins."""
+    y = np.zeros(20)
+    preds = {0: [0] * 20, 1: [1] + [0] * 19, 2: [1, 1] + [0] * 18}  # 0 best; 1, 2 within 2 SE
+    sq = pd.DataFrame({i: (np.array(v) - y) ** 2 for i, v in preds.items()})
+    table = pd.DataFrame({"brier": sq.mean().to_numpy(), "n_failed": [0, 0, 0]})
+    for cost_1, cost_2, expected in (
+        (0.1211, 0.1209, 1),  # 0.2 % apart: equal, the lower Brier (setting 1)
+        (0.1000, 0.1000 / (1 + COST_TIE) * 0.999, 2),  # just beyond the tie: the cheapest (setting 2)
+        (0.1000, 0.0999, 1),
+    ):
+        table["cost_s_per_test"] = [1.0, cost_1, cost_2]
+        t, rec = recommend(table, sq, k_se=2.0)
+        assert bool(t.loc[1, "within"]) and bool(t.loc[2, "within"])
+        assert rec == expected, (cost_1, cost_2)
+    # cost_tie = 0: strictly the cheapest within the margin (the rule before the tie)
+    table["cost_s_per_test"] = [1.0, 0.1211, 0.1209]
+    assert recommend(table, sq, k_se=2.0, cost_tie=0.0)[1] == 2
 
 
 def test_candidates_skip_axes_an_engine_lacks():
