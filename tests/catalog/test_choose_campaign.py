@@ -90,8 +90,8 @@ def test_pareto_front_and_margin_rule():
 
 def test_recommendation_counts_costs_within_the_timing_repeatability_as_equal():
     """Of the settings within the margin, one whose cost is within COST_TIE of the cheapest one's and
-    whose Brier is lower is recommended (the SP1 report's case: the reference at 2 ms cheaper than at
-    1 ms by 0.2 %, 1 ms better by one error in 20); beyond COST_TIE the cheapest wins."""
+    whose Brier is lower is recommended (a case of the SP1 report: the reference at 2 ms cheaper than
+    at 1 ms by 0.2 % in one run, 1 ms better by 5 errors in 196); beyond COST_TIE the cheapest wins."""
     y = np.zeros(20)
     preds = {0: [0] * 20, 1: [1] + [0] * 19, 2: [1, 1] + [0] * 18}  # 0 best; 1, 2 within 2 SE
     sq = pd.DataFrame({i: (np.array(v) - y) ** 2 for i, v in preds.items()})
