@@ -546,12 +546,13 @@ def test_catalogs_tradeoff_table_against_the_experiments() -> None:
 
 @pytest.mark.skipif(not (SHAKE / "experiments.csv").is_file(), reason=f"shake-table data not at {SHAKE}")
 def test_catalogs_recommendation_margin() -> None:
-    """ "the reference at 2 ms: +0.020 against a margin of 0.022 on 196 tests; the reference at 1 ms:
-    +0.015 against 0.021; MuJoCo hull at 4 ms: +0.041 against 0.023, outside; MuJoCo decimated at 4 ms:
+    """ "the reference at 1 ms: +0.015 against a margin of 0.021 on 196 tests; the reference at 2 ms:
+    +0.020 against 0.022; MuJoCo hull at 4 ms: +0.041 against 0.023, outside; MuJoCo decimated at 4 ms:
     +0.031 against 0.020, outside": the Brier difference to the best setting (MuJoCo's hull at 1 ms,
     the lowest Brier) and one standard error of the mean paired difference of squared errors,
-    recomputed from the per-test predictions and the lab's outcomes; the recommended setting is the
-    cheapest within its margin, and the settings the page names as within it are."""
+    recomputed from the per-test predictions and the lab's outcomes; the settings the page names as
+    within the margin are; the recommendation is, of those within it whose costs lie within 15 % of
+    the cheapest one's, the lowest Brier (the rule the page states, recomputed here)."""
     obs = _observed_sp1()
     sq: dict[tuple[str, str], dict[str, int]] = {}
     for r in _tradeoff_rows():
@@ -562,15 +563,15 @@ def test_catalogs_recommendation_margin() -> None:
     best = ("mujoco", _settings("0.001", "hull"))
     lowest = min(np.mean(list(sq[k].values())) for k in keys)
     assert [k for k in keys if np.mean(list(sq[k].values())) == lowest] == [best]
-    d2, m2, d1, m1, dh4, mh4, dd4, md4 = _find(
+    d1, m1, d2, m2, dh4, mh4, dd4, md4 = _find(
         "catalogs.md",
-        r"the reference\s+at 2 ms: \+([\d.]+) against a margin of ([\d.]+) on 196 tests; the reference at 1 ms:"
-        r" \+([\d.]+) against ([\d.]+); MuJoCo hull at 4 ms: \+([\d.]+) against ([\d.]+), outside; MuJoCo"
+        r"the reference at 1 ms: \+([\d.]+) against a margin of ([\d.]+) on 196 tests;\s+the reference at 2 ms:"
+        r" \+([\d.]+) against ([\d.]+); MuJoCo hull at 4 ms: \+([\d.]+) against ([\d.]+),\s+outside; MuJoCo"
         r" decimated at 4 ms: \+([\d.]+) against ([\d.]+), outside\)",
     )
     documented = {
-        ("reference", _settings("0.002", None)): (d2, m2, True),
         ("reference", _settings("0.001", None)): (d1, m1, True),
+        ("reference", _settings("0.002", None)): (d2, m2, True),
         ("mujoco", _settings("0.004", "hull")): (dh4, mh4, False),
         ("mujoco", _settings("0.004", "decimated")): (dd4, md4, False),
     }
@@ -593,15 +594,23 @@ def test_catalogs_recommendation_margin() -> None:
             ("pybullet", _settings("0.001", "decimated")),
         ]
     )
-    cheapest = min((k for k in keys if within[k]), key=lambda k: _setting_scores(*k)["cost"])
-    assert cheapest == ("reference", _settings("0.002", None))
-    cost, brier, f1 = _find(
+    (tie,) = _find("catalogs.md", r"costs within (\d+) % counting as equal")
+    cost = {k: _setting_scores(*k)["cost"] for k in keys if within[k]}
+    cheap = [k for k in cost if cost[k] <= (1 + tie / 100) * min(cost.values())]
+    recommended = min(cheap, key=lambda k: (np.mean(list(sq[k].values())), cost[k]))
+    assert recommended == ("reference", _settings("0.001", None))
+    c, brier, f1 = _find(
         "catalogs.md",
-        r"`recommend reference profile=faithful,timestep=0\.002 cost ([\d.]+) Brier ([\d.]+) F1 ([\d.]+)`",
+        r"`recommend reference profile=faithful,timestep=0\.001 cost ([\d.]+) Brier ([\d.]+) F1 ([\d.]+)`",
     )
-    got = _setting_scores(*cheapest)
-    assert cost == pytest.approx(got["cost"], abs=5e-5)
+    got = _setting_scores(*recommended)
+    assert c == pytest.approx(got["cost"], abs=5e-5)
     assert (brier, f1) == (pytest.approx(got["brier"], abs=5e-5), pytest.approx(got["f1"], abs=5e-5))
+    # the committed report's own recommend line says the same
+    assert any(
+        line.startswith("recommend reference profile=faithful,timestep=0.001 ")
+        for line in json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
+    )
 
 
 def test_catalogs_projection_arithmetic() -> None:

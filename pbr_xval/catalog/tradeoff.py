@@ -50,10 +50,10 @@ __all__ = [
 
 
 #: relative cost difference within which two settings count as equally cheap: the repeatability
-#: of the costs of one run. Two ``choose --campaign`` runs of the same 3,528 SP1 runs (18 settings,
-#: the same predictions) on the same quiet machine moved each setting's mean wall time per test by
-#: −5.1 to +6.9 % (median +3.9 %, the machine's state), so the ratio of two settings' costs by up to
-#: 12 %; 15 % with a margin (docs/catalogs.md, "SP1: the committed report")
+#: of the costs of one run. Three ``choose --campaign`` runs of the same 3,528 SP1 runs (18 settings,
+#: the same predictions) on the same quiet machine differ in each setting's mean wall time per test
+#: by −5.2 to +6.9 %, in the ratio of two settings' costs by up to 13 %; 15 % with a margin
+#: (docs/catalogs.md, "Solver choice against experiments")
 COST_TIE = 0.15
 
 
