@@ -110,6 +110,26 @@ def test_recommendation_counts_costs_within_the_timing_repeatability_as_equal():
     assert recommend(table, sq, k_se=2.0, cost_tie=0.0)[1] == 2
 
 
+def test_the_pages_state_the_cost_tie_the_code_applies():
+    """README's `choose` row and docs/catalogs.md give the tie the recommendation applies (COST_TIE)."""
+    root = Path(__file__).resolve().parents[2]
+    pct = f"{100 * COST_TIE:g} %"
+    readme = " ".join((root / "README.md").read_text().split())
+    catalogs = " ".join((root / "docs" / "catalogs.md").read_text().split())
+    assert (
+        f"(costs within {pct}, the timings' repeatability, count as equal; of those the lowest Brier)"
+        in readme
+    )
+    assert (
+        f"margin whose costs lie within {pct} of the cheapest one's (`pbr_xval.catalog.tradeoff.COST_TIE`)"
+        in catalogs
+    )
+    assert f"costs within {pct} counting as equal" in catalogs
+    # the measured spread the tie is taken from stays inside it
+    m = re.search(r"in the ratio of two settings' costs by up to (\d+) %", catalogs)
+    assert m and int(m.group(1)) < 100 * COST_TIE
+
+
 def test_candidates_skip_axes_an_engine_lacks():
     c = candidate_settings(["housner", "mujoco"], timesteps=[1e-3, 4e-3], collisions=["hull", "decimated"])
     assert [s.engine for s in c] == ["housner"] + ["mujoco"] * 4
