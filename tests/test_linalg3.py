@@ -154,8 +154,9 @@ def _probe(tmp: Path, coretype: str | None, npy_off: str | None = None) -> dict[
 def test_engine_inputs_and_runs_are_the_same_under_every_blas_kernel(tmp_path: Path) -> None:
     """The linalg3 results under every OpenBLAS core type and with NumPy's AVX-512 loops off;
     the compiled scene, the tilted start and the MuJoCo and PyBullet runs under every core type
-    of a CPU with AVX2 (the Sandybridge and Prescott kernels change the mesh's mass properties in
-    their last bits, trimesh's and scipy's arithmetic: docs/validation.md, "Machine dependence")."""
+    of a CPU with AVX2 (under the Sandybridge and Prescott kernels a scanned rock's settle pose —
+    BLAS products in ``geometry.interface.settle_pose`` — and all that follows differ in their last
+    bits: docs/validation.md, "The engines' inputs without BLAS")."""
     here = _probe(tmp_path, None)
     variants = {
         "Haswell": _probe(tmp_path, "Haswell"),
