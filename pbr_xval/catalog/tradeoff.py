@@ -289,7 +289,7 @@ def choice_lines(res: dict[str, Any]) -> list[str]:
         lines.append(
             f"recommend {r.engine} {r.settings} cost {r.cost_s_per_test:.4g} Brier {r.brier:.4f} F1 {_num(r.f1, '.4f')} "
             f"(cheapest with Brier within {res['k_se']:g} SE of the paired difference to the best, costs within "
-            f"{100 * res.get('cost_tie', COST_TIE):g} % of the cheapest equal and the lower Brier taken, "
+            f"{100 * res['cost_tie']:g} % of the cheapest equal and the lower Brier taken, "
             f"{b.engine} {b.settings} Brier {b.brier:.4f}; margin {r.margin:.4f} on {r.n_ok} tests)"
         )
     return lines
@@ -464,7 +464,7 @@ def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict
         "cost": "mean engine wall time per test (simulate only), s, on this machine",
         "brier": "mean (p − y)² with p = 0/1 predicted toppled, y = observed (= error rate)",
         "margin_rule": f"cheapest setting with Brier − best Brier ≤ {res['k_se']:g} × SE of the mean paired difference of squared errors; "
-        f"costs within {100 * res.get('cost_tie', COST_TIE):g} % of the cheapest such setting's count as equal (one run's timings), and of those the lowest Brier is taken",
+        f"costs within {100 * res['cost_tie']:g} % of the cheapest such setting's count as equal (one run's timings), and of those the lowest Brier is taken",
         "settings": json.loads(t.to_json(orient="records")),
         "recommendation": None if i is None else json.loads(t.loc[[i]].to_json(orient="records"))[0],
         "lines": lines,
@@ -505,7 +505,7 @@ th{{background:#f4f4f4}}code{{background:#f4f4f4}}</style></head><body>
 <p>x: mean engine wall time per test, s (the simulation only, on this machine at the load stated above);
 y: Brier score of the 0/1 predictions against the observed outcomes (equal to the error rate).
 The recommendation is the cheapest setting whose Brier exceeds the best by at most {res["k_se"]:g} standard
-error of the mean paired difference of squared errors over the tests both ran, costs within {100 * res.get("cost_tie", COST_TIE):g} %
+error of the mean paired difference of squared errors over the tests both ran, costs within {100 * res["cost_tie"]:g} %
 of the cheapest such setting's counting as equal (one run's timings; of those the lowest Brier is taken); a setting with failed runs is never recommended.</p>
 <img alt="Pareto front, cost vs Brier" src="data:image/png;base64,{img}">
 <h2>Settings</h2>
