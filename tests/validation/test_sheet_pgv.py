@@ -8,6 +8,7 @@ sheet (``experiments.csv``: PGA × PGV/PGA), the independent measurement. No sim
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -97,3 +98,46 @@ def test_the_pgv_ratio_by_band(ratios: pd.DataFrame) -> None:
     # the claim itself: no corner gives a ratio within 10 % of 1 in every band
     for c in ("0.1", "0.3", "0.5", "1", "none"):
         assert any(abs(x - 1.0) > 0.1 for x in _by_band(ratios, c)), c
+
+
+def _pgv_over_sheet(raw: np.ndarray, dt: float, sheet_pgv: float, corner: float) -> float:
+    """The corrected record's PGV at high-pass ``corner`` (Hz) over the sheet's PGV."""
+    acc, d = baseline_correct(raw, dt, Baseline(highpass_hz=corner))
+    v = np.concatenate([[0.0], np.cumsum(d * (acc[:-1] + acc[1:]) / 2)])
+    return float(np.max(np.abs(v))) / sheet_pgv
+
+
+def _sheet_corner(raw: np.ndarray, dt: float, sheet_pgv: float, lo: float = 0.02, hi: float = 5.0) -> float:
+    """The high-pass corner (Hz) at which the PGV equals the sheet's: bisection on ln f, 14 halvings
+    (0.03 % of the 0.02–5 Hz range in ln f, far below the page's two decimals), the bound when out of reach."""
+    if _pgv_over_sheet(raw, dt, sheet_pgv, lo) <= 1.0:
+        return lo
+    if _pgv_over_sheet(raw, dt, sheet_pgv, hi) >= 1.0:
+        return hi
+    a, b = math.log(lo), math.log(hi)
+    for _ in range(14):
+        mid = 0.5 * (a + b)
+        a, b = (mid, b) if _pgv_over_sheet(raw, dt, sheet_pgv, math.exp(mid)) > 1.0 else (a, mid)
+    return math.exp(0.5 * (a + b))
+
+
+def test_the_corners_that_match_the_sheet() -> None:
+    """docs/validation.md, "The records' long-period content": the per-test corners of ``tools/doc_one_offs.py sheet-pgv``,
+    searched again here against the sheet (their median per band of the sheet's PGV/PGA, and how many
+    stay at the search's bounds)."""
+    text = _doc()
+    m = re.search(
+        r"median corner ([\d.]+) Hz below 0\.06 s, ([\d.]+) / ([\d.]+) Hz at 0\.06–0\.08 / 0\.08–0\.10 s, "
+        r"([\d.]+) Hz at 0\.10–0\.15 s; (\d+) tests stay at 0\.02 Hz, .*? and (\d+) at 5 Hz\)",
+        text,
+    )
+    assert m, "docs/validation.md: the sentence on the corners matched to the sheet's PGV is missing"
+    rows = []
+    for t in load_campaign(SHAKE_TABLE, specimen=2).tests:
+        raw, dt = t.raw_acceleration()
+        sheet_pgv = t.sheet["pga_g"] * G_STANDARD * t.sheet["pgv_over_pga_s"]
+        rows.append({"pvp": t.sheet["pgv_over_pga_s"], "fc": _sheet_corner(raw, dt, sheet_pgv)})
+    df = pd.DataFrame(rows)
+    df["band"] = pd.cut(df["pvp"], BANDS)
+    assert _by_band(df, "fc")[:4] == [float(x) for x in m.groups()[:4]]
+    assert (int((df["fc"] == 0.02).sum()), int((df["fc"] == 5.0).sum())) == (int(m.group(5)), int(m.group(6)))
