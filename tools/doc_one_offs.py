@@ -141,10 +141,13 @@ def support_scale(scenario: Path, k: float, taper: float, out: Path) -> Path:
 
 
 def sheet_pgv(out: Path, corner: float | None, shared: Path) -> None:
-    """Write ``out/`` (experiments.csv, table_motions.npz, corners.csv): the campaign high-passed per test."""
-    import csv
-    import shutil
+    """Write ``out/`` (experiments.csv, table_motions.npz, corners.csv): the campaign corrected per test.
 
+    Each file is written atomically (:mod:`pbr_xval.atomic`).
+    """
+    import io
+
+    from pbr_xval.atomic import write_bytes_atomic, write_text_atomic
     from pbr_xval.validation.campaign import G_STANDARD, Baseline, baseline_correct, load_campaign
 
     g = G_STANDARD  # the records' unit, as the campaign reader converts them
@@ -156,7 +159,7 @@ def sheet_pgv(out: Path, corner: float | None, shared: Path) -> None:
         return float(np.max(np.abs(v)))
 
     out.mkdir(parents=True, exist_ok=True)
-    shutil.copy(shared / "experiments.csv", out / "experiments.csv")
+    write_text_atomic(out / "experiments.csv", (shared / "experiments.csv").read_text())
     npz = np.load(shared / "table_motions.npz")
     arrays = {k: npz[k] for k in npz.files}
     rows = []
@@ -179,11 +182,13 @@ def sheet_pgv(out: Path, corner: float | None, shared: Path) -> None:
         arrays[f"test{int(t.test):03d}_acc_g"] = acc / g
         arrays[f"test{int(t.test):03d}_dt_s"] = np.float64(dt_out)
         rows.append((t.test, f"{fc:.4g}", f"{pgv(raw, dt, fc) / sheet:.4f}", t.sheet["pgv_over_pga_s"]))
-    np.savez(out / "table_motions.npz", **arrays)
-    with (out / "corners.csv").open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["test", "highpass_hz", "pgv_over_sheet_pgv", "sheet_pgv_over_pga_s"])
-        w.writerows(rows)
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_bytes_atomic(out / "table_motions.npz", buf.getvalue())
+    text = io.StringIO()
+    text.write("test,highpass_hz,pgv_over_sheet_pgv,sheet_pgv_over_pga_s\n")
+    text.writelines(f"{a},{b},{c},{d!r}\n" for a, b, c, d in rows)
+    write_text_atomic(out / "corners.csv", text.getvalue())
     fcs = np.array([float(r[1]) for r in rows])
     print(
         f"wrote {out}: {len(rows)} tests, corner median {np.median(fcs):.3g} Hz (quartiles "
