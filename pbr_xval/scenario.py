@@ -822,8 +822,32 @@ def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
     if check_files:
         for key, f in scn.referenced_files().items():
             if not f.is_file():
-                raise ScenarioError(f"{path}: key '{key}': file not found: {f} (expected an existing file)")
+                raise ScenarioError(
+                    f"{path}: key '{key}': file not found: {f} (expected an existing file{_maker_hint(f)})"
+                )
     return scn
+
+
+def _maker_hint(missing: Path) -> str:
+    """``"; python X.py writes it"`` when a script beside ``missing`` names it in its docstring.
+
+    A derived input that is not committed (SP2's mesh, reconstructed from the shared point cloud by
+    ``examples/validation/make_sp2_mesh.py``) is written by a script in the scenario's folder whose
+    module docstring starts with what it writes; the hint names that script. Only the first 1,000
+    characters of each ``*.py`` beside the file are read; nothing is run.
+    """
+    try:
+        scripts = sorted(missing.parent.glob("*.py"))
+    except OSError:
+        return ""
+    for script in scripts:
+        try:
+            head = script.read_text(errors="replace")[:1000]
+        except OSError:
+            continue
+        if missing.name in head:
+            return f"; it is derived, not committed: `python {script}` writes it"
+    return ""
 
 
 def scenario_from_dict(data: dict[str, Any], *, source: Path | None = None) -> Scenario:

@@ -118,6 +118,39 @@ def test_missing_mesh_file(tmp_path: Path) -> None:
         load_scenario(write(tmp_path, text, "m.toml"))
 
 
+def test_missing_derived_file_names_the_script_that_writes_it(tmp_path: Path) -> None:
+    """A mesh derived from shared data (SP2's) is not committed: the error names its maker, runs nothing."""
+    text = BASE.replace(
+        'shape = "box"\nhalf_extents = [0.2, 0.2, 0.6]', 'shape = "mesh"\npath = "rock.made.obj"'
+    )
+    scenario = write(tmp_path, text, "m.toml")
+    (tmp_path / "other.py").write_text('"""Unrelated."""\n')
+    with pytest.raises(ScenarioError) as plain:
+        load_scenario(scenario)
+    assert "not committed" not in str(plain.value) and "\n" not in str(plain.value)
+    maker = tmp_path / "make_rock.py"
+    maker.write_text(
+        '"""Write ``rock.made.obj`` from the point cloud."""\nraise SystemExit("must not run")\n'
+    )
+    with pytest.raises(ScenarioError) as hinted:
+        load_scenario(scenario)
+    msg = str(hinted.value)
+    assert "\n" not in msg and "rock.path" in msg and "file not found" in msg
+    assert msg.endswith(f"it is derived, not committed: `python {maker}` writes it)")
+    assert not (tmp_path / "rock.made.obj").exists()
+
+
+def test_committed_sp2_scenario_names_its_mesh_maker(tmp_path: Path) -> None:
+    """The judged SP2 command on a clone without the reconstructed mesh says how to make it."""
+    import shutil
+
+    repo = Path(__file__).resolve().parents[1] / "examples" / "validation"
+    for name in ("sp2.toml", "make_sp2_mesh.py"):
+        shutil.copy(repo / name, tmp_path / name)
+    with pytest.raises(ScenarioError, match=r"sp2\.rock\.obj.*`python .*make_sp2_mesh\.py` writes it"):
+        load_scenario(tmp_path / "sp2.toml")
+
+
 def test_invalid_toml_and_missing_file(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match="not valid TOML"):
         load_scenario(write(tmp_path, "name = ", "x.toml"))
