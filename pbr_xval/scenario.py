@@ -829,7 +829,7 @@ def load_scenario(path: str | Path, *, check_files: bool = True) -> Scenario:
 
 
 def _maker_hint(missing: Path) -> str:
-    """``"; python X.py writes it"`` when a script beside ``missing`` names it in its docstring.
+    """``"; it is derived, not committed: `python X.py` writes it"`` when a script beside ``missing`` names it.
 
     A derived input that is not committed (SP2's mesh, reconstructed from the shared point cloud by
     ``examples/validation/make_sp2_mesh.py``) is written by a script in the scenario's folder whose
