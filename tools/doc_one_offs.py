@@ -148,15 +148,13 @@ def sheet_pgv(out: Path, corner: float | None, shared: Path) -> None:
     import io
 
     from pbr_xval.atomic import write_bytes_atomic, write_text_atomic
-    from pbr_xval.validation.campaign import G_STANDARD, Baseline, baseline_correct, load_campaign
+    from pbr_xval.validation.campaign import G_STANDARD, Baseline, baseline_correct, load_campaign, record_pgv
 
     g = G_STANDARD  # the records' unit, as the campaign reader converts them
     lo_hz, hi_hz = 0.02, 5.0
 
     def pgv(raw: np.ndarray, dt: float, fc: float) -> float:
-        acc, d = baseline_correct(raw, dt, Baseline(highpass_hz=fc))
-        v = np.concatenate([[0.0], np.cumsum(d * (acc[:-1] + acc[1:]) / 2)])  # as validate's MotionFile
-        return float(np.max(np.abs(v)))
+        return record_pgv(*baseline_correct(raw, dt, Baseline(highpass_hz=fc)))
 
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "experiments.csv", (shared / "experiments.csv").read_text())

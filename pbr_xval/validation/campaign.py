@@ -36,6 +36,7 @@ __all__ = [
     "load_campaign",
     "read_general_csv",
     "read_shared",
+    "record_pgv",
 ]
 
 G_STANDARD = 9.80665  # m/s² per g (the unit of lab records)
@@ -156,6 +157,15 @@ def baseline_correct(
             a = np.asarray(signal.resample_poly(a, 1, down), dtype=np.float64)
             dt = dt * down
     return a, float(dt)
+
+
+def record_pgv(acc: NDArray[np.floating], dt: float) -> float:
+    """Peak |v| (m/s) of a corrected record ``acc`` ((n,) m/s², sample interval ``dt`` s): the velocity
+    integrated by the trapezoidal rule from v = 0 and taken at the samples — the PGV ``validate``
+    reports for each test (:func:`pbr_xval.validation.execution.prepare_motions`)."""
+    a = np.asarray(acc, dtype=np.float64)
+    v = np.concatenate([[0.0], np.cumsum(dt * (a[:-1] + a[1:]) / 2)])
+    return float(np.max(np.abs(v)))
 
 
 @dataclass

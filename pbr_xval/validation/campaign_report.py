@@ -460,7 +460,7 @@ def campaign_ims(camp: Campaign, source: str, baseline: Any = None) -> tuple[np.
     ``"record"``: peak |a| and peak |v| of each record after ``baseline`` (a
     :class:`~pbr_xval.validation.campaign.Baseline`; the default one if None), v by the trapezoid rule.
     """
-    from pbr_xval.validation.campaign import Baseline, baseline_correct
+    from pbr_xval.validation.campaign import Baseline, baseline_correct, record_pgv
 
     if source == "sheet":
         pga = np.array([t.sheet["pga_g"] * G_STANDARD for t in camp.tests])
@@ -469,8 +469,7 @@ def campaign_ims(camp: Campaign, source: str, baseline: Any = None) -> tuple[np.
     ims = []
     for t in camp.tests:
         acc, dt = baseline_correct(*t.raw_acceleration(), base)
-        v = np.concatenate([[0.0], np.cumsum(dt * (acc[:-1] + acc[1:]) / 2)])
-        ims.append((float(np.max(np.abs(acc))), float(np.max(np.abs(v)))))
+        ims.append((float(np.max(np.abs(acc))), record_pgv(acc, dt)))
     pga, pgv = (np.array(c) for c in zip(*ims, strict=True))
     return pga, pgv
 

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from pbr_xval.atomic import write_text_atomic
-from pbr_xval.validation.campaign import Baseline, Campaign, baseline_correct
+from pbr_xval.validation.campaign import Baseline, Campaign, baseline_correct, record_pgv
 
 __all__ = ["MotionFile", "prepare_motions", "run_campaign", "scenario_rock"]
 
@@ -63,10 +63,9 @@ def prepare_motions(campaign: Campaign, baseline: Baseline, folder: Path) -> dic
         path = folder / f"test{_safe(t.test)}.txt"
         if not (path.is_file() and hashlib.sha256(path.read_bytes()).hexdigest() == sha):
             write_text_atomic(path, text, hidden=True)
-        v = np.concatenate([[0.0], np.cumsum(dt * (acc[:-1] + acc[1:]) / 2)])
         out[t.test] = MotionFile(
             test=t.test, path=path.resolve(), sha256=sha, dt=float(dt), duration=(acc.size - 1) * dt,
-            pga=float(np.max(np.abs(acc))), pgv=float(np.max(np.abs(v))),
+            pga=float(np.max(np.abs(acc))), pgv=record_pgv(acc, dt),
         )  # fmt: skip
     return out
 

@@ -13,6 +13,7 @@ from pbr_xval.validation.campaign import (
     baseline_correct,
     load_campaign,
     read_general_csv,
+    record_pgv,
 )
 
 from .conftest import SHAKE_TABLE, box_campaign
@@ -175,3 +176,12 @@ def test_baseline_correction_removes_offset_keeps_the_shaking() -> None:
     assert np.max(np.abs(acc4)) == pytest.approx(2.0, rel=0.01)
     with pytest.raises(CampaignError, match="below the low-pass"):
         Baseline(highpass_hz=30.0, lowpass_hz=25.0)
+
+
+def test_record_pgv_against_the_closed_form() -> None:
+    """A sine a = A sin 2πt over one period: v = A (1 − cos 2πt) / 2π, peak A/π at t = ½ s (a sample at
+    dt = 1 ms); the trapezoidal rule's error is O(dt²). A constant acceleration: v = a t exactly."""
+    amp, dt = 3.0, 1e-3
+    t = np.arange(1001) * dt
+    assert record_pgv(amp * np.sin(2 * np.pi * t), dt) == pytest.approx(amp / np.pi, rel=1e-5)
+    assert record_pgv(np.full(101, -2.0), 0.01) == pytest.approx(2.0, rel=1e-12)

@@ -3,7 +3,8 @@ baseline correction": the median ratio at the 0.1, 0.3 and 0.5 Hz corners that c
 0.3 Hz) and by the sheet's PGV/PGA ("A softer contact, or less high-frequency shaking": the ratio by
 band, flat at no corner). Recomputed here from the shared records with the campaign reader's
 correction (:func:`pbr_xval.validation.campaign.baseline_correct`, the one ``validate`` applies) and
-the same trapezoidal velocity as :func:`pbr_xval.validation.execution.prepare_motions`, against the
+the PGV that :func:`pbr_xval.validation.execution.prepare_motions` reports
+(:func:`pbr_xval.validation.campaign.record_pgv`), against the
 sheet (``experiments.csv``: PGA × PGV/PGA), the independent measurement. No simulation."""
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pbr_xval.validation.campaign import G_STANDARD, Baseline, baseline_correct, load_campaign
+from pbr_xval.validation.campaign import G_STANDARD, Baseline, baseline_correct, load_campaign, record_pgv
 
 from .conftest import REPO, SHAKE_TABLE
 
@@ -44,8 +45,7 @@ def ratios() -> pd.DataFrame:
         sheet_pgv = sheet_pga * r["pvp"]
         for name, hp in corners.items():
             acc, d = baseline_correct(raw, dt, Baseline(highpass_hz=hp))
-            v = np.concatenate([[0.0], np.cumsum(d * (acc[:-1] + acc[1:]) / 2)])
-            r[name] = float(np.max(np.abs(v))) / sheet_pgv
+            r[name] = record_pgv(acc, d) / sheet_pgv
             if name == "0.3":
                 r["pga_0.3"] = float(np.max(np.abs(acc))) / sheet_pga
         rows.append(r)
@@ -102,9 +102,7 @@ def test_the_pgv_ratio_by_band(ratios: pd.DataFrame) -> None:
 
 def _pgv_over_sheet(raw: np.ndarray, dt: float, sheet_pgv: float, corner: float) -> float:
     """The corrected record's PGV at high-pass ``corner`` (Hz) over the sheet's PGV."""
-    acc, d = baseline_correct(raw, dt, Baseline(highpass_hz=corner))
-    v = np.concatenate([[0.0], np.cumsum(d * (acc[:-1] + acc[1:]) / 2)])
-    return float(np.max(np.abs(v))) / sheet_pgv
+    return record_pgv(*baseline_correct(raw, dt, Baseline(highpass_hz=corner))) / sheet_pgv
 
 
 def _sheet_corner(raw: np.ndarray, dt: float, sheet_pgv: float, lo: float = 0.02, hi: float = 5.0) -> float:
