@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["det3", "eigh3", "mat3_mul", "mat3_vec", "norm3", "principal_axes", "rows_dot", "rows_mul"]
+__all__ = ["det3", "eigh3", "inv3", "mat3_mul", "mat3_vec", "norm3", "principal_axes", "rows_dot", "rows_mul"]
 
 #: cyclic Jacobi sweeps at most (a symmetric 3 × 3 converges quadratically, in 3–6 sweeps)
 _MAX_SWEEPS = 64
@@ -110,6 +110,26 @@ def det3(a: ArrayLike) -> float:
         - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
         + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     )
+
+
+def inv3(a: ArrayLike) -> NDArray[np.float64]:
+    """Inverse of a 3 × 3 matrix by cofactors (the adjugate over :func:`det3`, fixed order);
+    ``ValueError`` when the determinant is zero or not finite. ``numpy.linalg.inv`` is LAPACK's
+    LU, whose rounding depends on the CPU's kernels (an inertia tensor's inverse feeds every
+    step of the reference solver)."""
+    m = _rows(a)
+    d = det3(a)
+    if not (d != 0.0 and math.isfinite(d)):
+        raise ValueError(f"matrix is singular (determinant {d})")
+    cof = [
+        [
+            m[(j + 1) % 3][(i + 1) % 3] * m[(j + 2) % 3][(i + 2) % 3]
+            - m[(j + 1) % 3][(i + 2) % 3] * m[(j + 2) % 3][(i + 1) % 3]
+            for j in range(3)
+        ]
+        for i in range(3)
+    ]
+    return np.array([[cof[i][j] / d for j in range(3)] for i in range(3)], dtype=np.float64)
 
 
 def principal_axes(inertia: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -12,6 +12,8 @@ Modules, to read beside the paper's Section 3:
 * :mod:`~pbr_xval.reference.cone` — the iterative Coulomb-cone solver and the friction-pyramid
   LCP (eqs. 3.6–3.7, the general fallback);
 * :mod:`~pbr_xval.reference.lcp` — all solvers under one import.
+* :mod:`~pbr_xval.reference.dense` — the small matrix products, least-squares solve and null
+  space of the Python paths without BLAS or LAPACK (the same bits on every x86-64 CPU).
 
 Deviations from the paper
 -------------------------

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
+from pbr_xval.linalg3 import mat3_mul, mat3_vec, norm3, rows_dot
 from pbr_xval.status import RunStatus
 
 if TYPE_CHECKING:
@@ -415,7 +416,9 @@ class _StaticSupport:
         above the polygon's interior."""
         from scipy.spatial import ConvexHull, QhullError
 
-        world = state.x + body.nodes @ state.R.T
+        # body.nodes @ Rᵀ and the products below without BLAS (linalg3: the same bits on every CPU)
+        R = state.R
+        world = state.x + np.stack([rows_dot(body.nodes, R[i]) for i in range(3)], axis=1)
         gaps = pedestal.gaps(world, _ZERO)
         pts = world[gaps <= eps, :2]
         h = float(state.x[2])
@@ -426,7 +429,8 @@ class _StaticSupport:
         except (QhullError, ValueError):
             return None
         eq = hull.equations  # a·x + b·y + c ≤ 0 inside, (a, b) unit outward
-        tan = -(eq[:, :2] @ state.x[:2] + eq[:, 2]) / h
+        x0, x1 = float(state.x[0]), float(state.x[1])
+        tan = -(eq[:, 0] * x0 + eq[:, 1] * x1 + eq[:, 2]) / h
         if not np.all(tan > 0.0):
             return None
         return cls(np.ascontiguousarray(eq[:, :2]), tan, float(mu_s))
@@ -435,7 +439,7 @@ class _StaticSupport:
         """(n,) bool: the rock stays at rest under each load of ``loads`` (n, 3) m/s²."""
         down = -loads[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
-            lean = (self.edges @ loads[:, :2].T) / down
+            lean = (self.edges[:, 0:1] * loads[None, :, 0] + self.edges[:, 1:2] * loads[None, :, 1]) / down
             ok = np.all(lean <= (1.0 - HOLD_MARGIN) * self.tan[:, None], axis=0)
             ok &= np.hypot(loads[:, 0], loads[:, 1]) <= (1.0 - HOLD_MARGIN) * self.mu * down
         return ok & (down > 0.0)
@@ -693,8 +697,8 @@ class ReferenceEngine(EngineBase):
         body = Body(float(scene.rock.mass), np.asarray(scene.rock.inertia, dtype=float), nodes)
         stepper = RigidBodySolver(body, pedestal, load, scene.mu_s, scene.mu_d, scene.restitution, s)
         com0, rot0, vel0, om0 = initial_pose(scene)
-        iw0 = rot0 @ body.inertia @ rot0.T
-        state = State(com0.copy(), vel0.copy(), rot0.copy(), iw0 @ om0)
+        iw0 = mat3_mul(mat3_mul(rot0, body.inertia), np.ascontiguousarray(rot0.T))
+        state = State(com0.copy(), vel0.copy(), rot0.copy(), mat3_vec(iw0, om0))
         if stepper.compiled and not _WARM:
             # the kernel's JIT compile (or the load of its on-disk cache) happens here, on a
             # throwaway stepper, not inside the run's CPU time and cost budget
@@ -1228,9 +1232,9 @@ class ReferenceEngine(EngineBase):
         speed = math.sqrt(vx * vx + vy * vy + vz * vz) + math.sqrt(wx * wx + wy * wy + wz * wz) * size
         if speed >= rest_v:
             return False
-        dv = float(np.linalg.norm(stepper.last_force)) / stepper.body.mass * dt
-        alpha = stepper.inv_inertia_world(state.R) @ stepper.last_torque
-        return dv + float(np.linalg.norm(alpha)) * size * dt < rest_v
+        dv = norm3(stepper.last_force) / stepper.body.mass * dt
+        alpha = mat3_vec(stepper.inv_inertia_world(state.R), stepper.last_torque)
+        return dv + norm3(alpha) * size * dt < rest_v
 
     @staticmethod
     def _rel_com(state: Any, pedestal: Any, t: float) -> np.ndarray:

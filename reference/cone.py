@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from pbr_xval.reference import dense
 from pbr_xval.reference.pivoting import lemke
 
 __all__ = ["FrictionResult", "friction_residuals", "solve_friction_cone", "solve_friction_pyramid"]
@@ -80,6 +81,21 @@ class FrictionResult:
     def ok(self) -> bool:
         """True when the solve converged."""
         return self.converged
+
+
+def _mv(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """a @ x without BLAS (:func:`dense.matvec`: the same bits on every CPU)."""
+    return dense.matvec(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(x, dtype=float))
+
+
+def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a @ b without BLAS (:func:`dense.matmul`)."""
+    return dense.matmul(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float))
+
+
+def _lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``numpy.linalg.lstsq(a, b, rcond=1e-12)[0]`` without LAPACK (:func:`dense.lstsq`)."""
+    return dense.lstsq(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float), 1e-12)
 
 
 def _mu_vector(mu: float | np.ndarray, k: int) -> np.ndarray:
@@ -191,7 +207,7 @@ def _disc_local_solve(lam: np.ndarray, Q: np.ndarray, c: np.ndarray, radius: flo
     """
     if radius <= 0.0:
         return np.zeros(2)
-    ct = Q.T @ c
+    ct = np.array([Q[0, 0] * c[0] + Q[1, 0] * c[1], Q[0, 1] * c[0] + Q[1, 1] * c[1]])  # Qᵀ c
     c_norm = float(np.hypot(ct[0], ct[1]))
     if c_norm == 0.0:
         return np.zeros(2)
@@ -199,7 +215,7 @@ def _disc_local_solve(lam: np.ndarray, Q: np.ndarray, c: np.ndarray, radius: flo
     if lam[0] > 1e-14 * lam_max:
         ft = -(ct / lam)
         if np.hypot(ft[0], ft[1]) <= radius:
-            return Q @ ft
+            return np.array([Q[0, 0] * ft[0] + Q[0, 1] * ft[1], Q[1, 0] * ft[0] + Q[1, 1] * ft[1]])
     lo, hi = 0.0, c_norm / radius  # |f(hi)| <= |c| / hi = radius
     g = 0.0 if lam[0] > 1e-14 * lam_max else 0.5 * hi
     for _ in range(100):
@@ -220,7 +236,7 @@ def _disc_local_solve(lam: np.ndarray, Q: np.ndarray, c: np.ndarray, radius: flo
         g = g_new
     ft = -(ct / (lam + g))
     ft *= radius / float(np.hypot(ft[0], ft[1]))
-    return Q @ ft
+    return np.array([Q[0, 0] * ft[0] + Q[0, 1] * ft[1], Q[1, 0] * ft[0] + Q[1, 1] * ft[1]])  # Q ft
 
 
 @njit(cache=True)
@@ -481,10 +497,10 @@ def _mode_polish_once(
     if not cols:
         return base
     Gm = np.array(cols).T  # (3k, m) maps unknown changes to force changes
-    a = A @ base + b
-    E = (A @ Gm)[rows]
-    dx = np.linalg.lstsq(E, -a[rows], rcond=1e-12)[0]
-    return base + Gm @ dx
+    a = _mv(A, base) + b
+    E = _mm(A, Gm)[rows]
+    dx = _lstsq(E, -a[rows])
+    return base + _mv(Gm, dx)
 
 
 #: sweeps between the contact-mode polishes of :func:`solve_friction_cone` (its Newton solves come
@@ -517,8 +533,8 @@ def _mode_system(
             df[3 * i : 3 * i + 3, j] = (1.0, mu[i] * c, mu[i] * s)
             df[3 * i + 1 : 3 * i + 3, j + 1] = (-mu[i] * fn * s, mu[i] * fn * c)
         j += m
-    aa = A @ ff + b
-    da = A @ df
+    aa = _mv(A, ff) + b
+    da = _mm(A, df)
     res = np.empty(x.size)
     jac = np.empty((x.size, x.size))
     j = 0
@@ -587,15 +603,15 @@ def _mode_newton(
         x = np.array(x0)
 
         res, jac, ff = _mode_system(x, slots, A, b, mu)
-        norm = float(np.linalg.norm(res))
+        norm = float(dense.norm2(res))
         for _ in range(iters):
             if norm <= 1e-15 * b_scale:
                 break
-            dx = np.linalg.lstsq(jac, -res, rcond=1e-12)[0]
+            dx = _lstsq(jac, -res)
             step = 1.0
             while True:
                 res2, jac2, ff2 = _mode_system(x + step * dx, slots, A, b, mu)
-                norm2 = float(np.linalg.norm(res2))
+                norm2 = float(dense.norm2(res2))
                 if norm2 < norm or step < 1e-4:
                     break
                 step *= 0.5
@@ -603,7 +619,7 @@ def _mode_newton(
                 break
             x, res, jac, ff, norm = x + step * dx, res2, jac2, ff2, norm2
         cand = ff
-        aa = A @ ff + b
+        aa = _mv(A, ff) + b
         F = ff.reshape(k, 3).copy()
         changed = False
         j = 0
@@ -749,13 +765,13 @@ def solve_friction_cone(
             pyr = solve_friction_pyramid(A, b, mu_arr, n_facets=16)
             if pyr.converged:
                 f = pyr.f.copy()
-                a = A @ f + b
+                a = _mv(A, f) + b
                 method = "pgs_cone+pyramid_restart"
         if it % polish_every == 0:
             fs = max(float(np.max(np.abs(f))), force_scale, 1e-300)
             cand = _mode_polish(A, b, f, mu_arr)
-            a_c = A @ cand + b
-            a = A @ f + b
+            a_c = _mv(A, cand) + b
+            a = _mv(A, f) + b
             if _friction_merit(cand, a_c, mu_arr, fs, acc_scale) < _friction_merit(
                 f, a, mu_arr, fs, acc_scale
             ):
@@ -763,7 +779,7 @@ def solve_friction_cone(
             if newton_every and it % newton_every == 0:
                 newt = _mode_newton(A, b, f, mu_arr)
                 if newt is not None:
-                    a_n = A @ newt + b
+                    a_n = _mv(A, newt) + b
                     fs_n = max(float(np.max(np.abs(newt))), force_scale, 1e-300)
                     if _friction_merit(newt, a_n, mu_arr, fs_n, acc_scale) <= NEWTON_MERIT_TOL:
                         f, converged, method = newt, True, method + "+newton"
@@ -779,7 +795,7 @@ def solve_friction_cone(
         )
         if converged:
             break
-    a = A @ f + b
+    a = _mv(A, f) + b
     return FrictionResult(
         f=f,
         a=a,
@@ -845,24 +861,24 @@ def solve_friction_pyramid(
     k = b.size // 3
     mu_arr = _mu_vector(mu, k)
     m = n_facets
-    ang = 2.0 * np.pi * np.arange(m) / m
-    D = np.vstack([np.cos(ang), np.sin(ang)])  # (2, m)
+    ang = [2.0 * math.pi * j / m for j in range(m)]  # libm's cos and sin, not NumPy's SIMD loops
+    D = np.array([[math.cos(x) for x in ang], [math.sin(x) for x in ang]])  # (2, m)
     nv = k * (1 + m)  # (f_n, beta) per contact
     H = np.zeros((3 * k, nv))  # f = H x
     for i in range(k):
         H[3 * i, i * (1 + m)] = 1.0
         H[3 * i + 1 : 3 * i + 3, i * (1 + m) + 1 : (i + 1) * (1 + m)] = D
     L = np.zeros((nv + k, nv + k))
-    L[:nv, :nv] = H.T @ A @ H
+    L[:nv, :nv] = _mm(_mm(H.T, A), H)
     for i in range(k):
         beta = slice(i * (1 + m) + 1, (i + 1) * (1 + m))
         L[beta, nv + i] = 1.0
         L[nv + i, i * (1 + m)] = mu_arr[i]
         L[nv + i, beta] = -1.0
-    qq = np.concatenate([H.T @ b, np.zeros(k)])
+    qq = np.concatenate([_mv(H.T, b), np.zeros(k)])
     res = lemke(L, qq, max_pivots=max_pivots, tol=tol)
-    f = H @ res.z[:nv]
-    a = A @ f + b
+    f = _mv(H, res.z[:nv])
+    a = _mv(A, f) + b
     return FrictionResult(
         f=f,
         a=a,

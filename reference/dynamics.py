@@ -88,9 +88,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.linalg.lapack import dgesv as _dgesv
 
-from pbr_xval.reference import cone, kernel, pivoting, selection
+from pbr_xval.linalg3 import eigh3, inv3
+from pbr_xval.reference import cone, dense, kernel, pivoting, selection
 
 __all__ = [
     "Body",
@@ -168,14 +168,11 @@ _EYE3 = np.eye(3)
 _EYE3.flags.writeable = False
 
 
-def solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """x = a⁻¹ b: LAPACK's dgesv (LU with partial pivoting), the routine behind
-    ``np.linalg.solve``, called directly (the small systems here are dominated by the
-    wrapper's overhead)."""
-    _, _, x, info = _dgesv(a, b)
-    if info > 0:
-        raise np.linalg.LinAlgError("Singular matrix")
-    return x
+def _norm(v: np.ndarray) -> float:
+    """|v| of a (3,) vector summed left to right (``v.dot(v)`` is a BLAS dot product, whose
+    rounding depends on the CPU)."""
+    x, y, z = v.tolist()
+    return math.sqrt(x * x + y * y + z * z)
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -205,9 +202,9 @@ def skew(w: np.ndarray) -> np.ndarray:
 
 
 def cayley(w: np.ndarray) -> np.ndarray:
-    """Cayley transform of the rotation vector-like w: (I − [w]×/2)⁻¹ (I + [w]×/2) ∈ SO(3)."""
-    s = 0.5 * skew(w)
-    return solve(_EYE3 - s, _EYE3 + s)
+    """Cayley transform of the rotation vector-like w: (I − [w]×/2)⁻¹ (I + [w]×/2) ∈ SO(3)
+    (:func:`kernel._cayley`: cofactors, no LAPACK, the compiled step's arithmetic)."""
+    return kernel._cayley(np.ascontiguousarray(w, dtype=float))
 
 
 def cayley_project(r_new: np.ndarray, r_old: np.ndarray) -> np.ndarray:
@@ -216,14 +213,12 @@ def cayley_project(r_new: np.ndarray, r_old: np.ndarray) -> np.ndarray:
     The increment ΔR = R_new R_oldᵀ (near identity for one step) is written through its
     Cayley parameter W = (ΔR − I)(ΔR + I)⁻¹ (skew for a rotation); the skew part of W is
     mapped back by Q = (I − W_s)⁻¹ (I + W_s), which is exactly orthogonal with det = +1.
-    ``r_old`` must be a rotation.
+    ``r_old`` must be a rotation. :func:`kernel._cayley_project`: the compiled step's
+    arithmetic, no BLAS or LAPACK.
     """
-    eye = _EYE3
-    dr = r_new @ r_old.T
-    w = solve((dr + eye).T, (dr - eye).T).T  # (ΔR − I)(ΔR + I)⁻¹
-    ws = 0.5 * (w - w.T)
-    q = solve(eye - ws, eye + ws)
-    return q @ r_old
+    return kernel._cayley_project(
+        np.ascontiguousarray(r_new, dtype=float), np.ascontiguousarray(r_old, dtype=float)
+    )
 
 
 @dataclass
@@ -237,7 +232,7 @@ class Body:
 
     def __post_init__(self) -> None:
         self.inertia = np.asarray(self.inertia, dtype=float)
-        self.inertia_inv = np.linalg.inv(self.inertia)
+        self.inertia_inv = inv3(self.inertia)  # cofactors: no LAPACK (module docstring of dense)
         self.nodes = np.ascontiguousarray(self.nodes, dtype=float)
 
 
@@ -463,7 +458,7 @@ class RigidBodySolver:
         self._pred_idx = np.zeros(n + 1, dtype=np.int64)  # its contact ids (count first)
         self._load_cache: tuple[float, np.ndarray] = (math.nan, np.zeros(3))
         # angular-momentum scale per unit COM speed: λ_max(I') / (largest node lever arm)
-        self._lref = float(np.linalg.eigvalsh(body.inertia).max()) / max(
+        self._lref = float(eigh3(body.inertia)[0][2]) / max(
             float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300
         )
         self._size = max(float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
@@ -502,7 +497,7 @@ class RigidBodySolver:
             self._cull_order = np.argsort(lim, kind="stable")
             self._cull_lim = lim[self._cull_order].tolist()
         # |ω| ≤ |l| / λ_min(I): the tilt margin of a step
-        self._inv_lmin = 1.0 / max(float(np.linalg.eigvalsh(body.inertia).min()), 1e-300)
+        self._inv_lmin = 1.0 / max(float(eigh3(body.inertia)[0][0]), 1e-300)
         self._ext = np.zeros((7, 3))
         self._info = np.zeros(kernel.N_INFO)
         self.last_gaps = np.zeros(n)
@@ -517,10 +512,11 @@ class RigidBodySolver:
     # ------------------------------------------------------------------ kinematics
     def omega(self, s: State) -> np.ndarray:
         """ω = I⁻¹ l with I = R I' Rᵀ (Section 3)."""
-        return s.R @ (self.body.inertia_inv @ (s.R.T @ s.l))
+        return kernel._omega(np.ascontiguousarray(s.R), self.body.inertia_inv, np.ascontiguousarray(s.l))
 
     def inv_inertia_world(self, R: np.ndarray) -> np.ndarray:
-        return R @ self.body.inertia_inv @ R.T
+        R = np.ascontiguousarray(R)
+        return kernel._mmt(kernel._mm(R, self.body.inertia_inv), R)
 
     def node_kinematics(self, s: State, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Lever arms r (N, 3), gaps (N,), relative velocities (N, 3) in the (n, x, y) basis, ω.
@@ -530,12 +526,12 @@ class RigidBodySolver:
         kc = self._kin_cache
         if kc is not None and kc[0] is s and kc[1] == t and np.array_equal(kc[3], s.buf):
             return kc[2]
-        r = self.body.nodes @ s.R.T
+        r = kernel._points_mt(self.body.nodes, np.ascontiguousarray(s.R))
         d, vp, _ = self.ped.motion(t)
         gaps = self.ped.gaps(s.x + r, d)
         w = self.omega(s)
         vel = s.v + cross(w, r) - vp
-        out = (r, gaps, vel @ BASIS.T, w)
+        out = (r, gaps, np.ascontiguousarray(vel[:, (2, 0, 1)]), w)  # vel @ BASIS.T, a permutation
         self._kin_cache = (s, t, out, s.buf.copy())
         return out
 
@@ -620,7 +616,7 @@ class RigidBodySolver:
             s.R, s.l, self.body.inertia_inv, m, c.nodes, c.slide, c.sdir, c.stab, a_load - ap, self.mu_d
         )
         f = self._solve_resting(A, b, c, diag, 2.0 * cons)
-        wrench = gf.T @ f
+        wrench = dense.matvec(np.ascontiguousarray(gf.T), f)
         return m * a_load + wrench[:3], wrench[3:], f
 
     def _resting_guess(self, c: _Contacts) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -654,7 +650,7 @@ class RigidBodySolver:
             self.stats.lcp_fast_path += 1
         else:
             f = self._full_resting(A, b, c)
-            a = A @ f + b
+            a = dense.matvec(np.ascontiguousarray(A), f) + b
             F = f.reshape(k, 3)
             # a sticking contact whose friction is at the static cone (impending slip) is
             # guessed as such by the next solve, its friction's direction from this one
@@ -793,7 +789,7 @@ class RigidBodySolver:
         self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
         self.stats.lcp_time += time.perf_counter() - t0
         vmin = float(vn.min())
-        nw = math.sqrt(float(w.dot(w)))
+        nw = _norm(w)
         info = {
             "v_n_min": vmin,
             "nodes": int(inband.size),
@@ -1102,7 +1098,7 @@ class RigidBodySolver:
             st.selection_reverted += 1
         st.pgs_sweeps += int(v[kernel.J_SWEEPS])
         w = row[kernel.J_W0 : kernel.J_W0 + 3].copy()
-        nw = math.sqrt(float(w.dot(w)))
+        nw = _norm(w)
         nw2 = v[kernel.J_W1]
         return {
             "v_n_min": v[kernel.J_VNMIN],
@@ -1186,7 +1182,7 @@ class RigidBodySolver:
         c = self._contacts(s0, t0, dt)
         F0, tau0, _ = self.contact_forces(s0, tl0, c, diag=True)
         w0 = self.omega(s0)
-        W0R0 = skew(w0) @ s0.R
+        W0R0 = kernel._mm(skew(w0), s0.R)
         # predictor: trapezoid with the end forces extrapolated linearly from the previous
         # step (explicit Euler after an impact, a breakpoint or a change of step)
         Fp, taup = F0, tau0
@@ -1196,13 +1192,13 @@ class RigidBodySolver:
             Fp, taup = 2.0 * F0 - pr[3:6], 2.0 * tau0 - pr[6:9]
         vp = s0.v + 0.5 * dt * (F0 + Fp) / m
         lp = s0.l + 0.5 * dt * (tau0 + taup)
-        s1 = State(s0.x + 0.5 * dt * (s0.v + vp), vp, cayley(dt * w0) @ s0.R, lp)
+        s1 = State(s0.x + 0.5 * dt * (s0.v + vp), vp, kernel._mm(cayley(dt * w0), s0.R), lp)
         its = 0
         converged = False
         # convergence scales: the current momentum, or what the loads (≈ g) give in one step
         a0 = self._load(tl0)
-        vscale = max(math.sqrt(s0.v.dot(s0.v)), math.sqrt(a0.dot(a0)) * dt, 1e-300)
-        lscale = max(math.sqrt(s0.l.dot(s0.l)), self._lref * vscale, 1e-300)
+        vscale = max(_norm(s0.v), _norm(a0) * dt, 1e-300)
+        lscale = max(_norm(s0.l), self._lref * vscale, 1e-300)
         F1, tau1 = F0, tau0
         for it in range(1, self.iterations + 1):
             its = it
@@ -1210,15 +1206,18 @@ class RigidBodySolver:
             v1 = s0.v + 0.5 * dt * (F0 + F1) / m  # eq. 3.2, constant average acceleration
             x1 = s0.x + 0.5 * dt * (s0.v + v1)  # eq. 3.1
             l1 = s0.l + 0.5 * dt * (tau0 + tau1)  # eq. 3.4
-            w1 = s1.R @ (self.body.inertia_inv @ (s1.R.T @ l1))  # ω = I⁻¹ l at the current R estimate
-            R1 = s0.R + 0.5 * dt * (W0R0 + skew(w1) @ s1.R)  # eq. 3.3, trapezoidal
+            w1 = kernel._omega(s1.R, self.body.inertia_inv, l1)  # ω = I⁻¹ l at the current R estimate
+            R1 = s0.R + 0.5 * dt * (W0R0 + kernel._mm(skew(w1), s1.R))  # eq. 3.3, trapezoidal
             # det R = 1 and RᵀR = I check; Cayley projection back onto SO(3)
-            if abs(np.linalg.det(R1) - 1.0) > self.orth_tol or abs(R1.T @ R1 - _EYE3).max() > self.orth_tol:
+            if (
+                abs(kernel._det3(R1) - 1.0) > self.orth_tol
+                or abs(kernel._mm(np.ascontiguousarray(R1.T), R1) - _EYE3).max() > self.orth_tol
+            ):
                 R1 = cayley_project(R1, s0.R)
                 self.stats.cayley_projections += 1
             ddv, ddl = v1 - s1.v, l1 - s1.l
-            dv = math.sqrt(ddv.dot(ddv)) / vscale
-            dl = math.sqrt(ddl.dot(ddl)) / lscale
+            dv = _norm(ddv) / vscale
+            dl = _norm(ddl) / lscale
             dR = float(abs(R1 - s1.R).max())
             s1 = State(x1, v1, R1, l1)
             if max(dv, dl, dR) <= self.itol:
@@ -1234,7 +1233,7 @@ class RigidBodySolver:
         pidx[0] = k
         pidx[1 : 1 + k] = c.idx
         # penetration check at the end of the step
-        r = self.body.nodes @ s1.R.T
+        r = kernel._points_mt(self.body.nodes, s1.R)
         d, _, _ = self.ped.motion(t1)
         gaps = self.ped.gaps(s1.x + r, d)
         gmin = float(gaps.min())
@@ -1247,7 +1246,7 @@ class RigidBodySolver:
         return s1, its
 
     def penetration(self, s: State, t: float) -> float:
-        r = self.body.nodes @ s.R.T
+        r = kernel._points_mt(self.body.nodes, np.ascontiguousarray(s.R))
         d, _, _ = self.ped.motion(t)
         g = self.ped.gaps(s.x + r, d)
         return max(0.0, -float(np.min(g)))

@@ -363,6 +363,13 @@ def _omega3(R, inertia_inv, lm):
 
 
 # ----------------------------------------------------------------------------- support hull
+@njit(**_NO_REFCOUNT)
+def _dot3(a, b):
+    """a · b for (3,) vectors summed left to right (numba's ``np.dot`` calls BLAS, whose rounding
+    depends on the CPU's kernels)."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
 @njit(cache=True)
 def support_hull(nodes, idx, tol):
     """Contact nodes that are not convex combinations of the others (exact reduction).
@@ -413,7 +420,7 @@ def support_hull(nodes, idx, tol):
         lo, hi = 0, 0
         slo, shi = np.inf, -np.inf
         for a in range(k):
-            s = np.dot(nodes[idx[a]] - p0, e1)
+            s = _dot3(nodes[idx[a]] - p0, e1)
             if s < slo:
                 slo = s
                 lo = a
@@ -431,10 +438,10 @@ def support_hull(nodes, idx, tol):
     v = np.empty(k)
     for a in range(k):
         d = nodes[idx[a]] - p0
-        if abs(np.dot(d, nrm)) > tol:
+        if abs(_dot3(d, nrm)) > tol:
             return idx.copy()  # not coplanar: keep every node
-        u[a] = np.dot(d, e1)
-        v[a] = np.dot(d, e2)
+        u[a] = _dot3(d, e1)
+        v[a] = _dot3(d, e2)
     # Andrew's monotone chain; collinear points are dropped (cross ≤ tol·|edge|)
     order = np.argsort(u + 1e-12 * v)
     # stable lexicographic order (u, v)

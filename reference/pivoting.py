@@ -39,6 +39,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from pbr_xval.reference import dense
+
 __all__ = ["VERIFY_RTOL", "LCPResult", "dantzig", "lemke", "solve_lcp"]
 
 #: Relative tolerance of the final a-posteriori check of every LCP answer.
@@ -130,7 +132,7 @@ def _lstsq(A: np.ndarray, rhs: np.ndarray, rcond: float) -> np.ndarray:
     """Minimum-norm least-squares solve of ``A x = rhs`` (tolerates singular ``A``)."""
     if A.size == 0:
         return np.zeros(A.shape[1:] + rhs.shape[1:])
-    return np.linalg.lstsq(A, rhs, rcond=rcond)[0]
+    return dense.lstsq(np.ascontiguousarray(A, dtype=float), np.ascontiguousarray(rhs, dtype=float), rcond)
 
 
 def _scales(M: np.ndarray, q: np.ndarray) -> tuple[float, float]:
@@ -172,19 +174,19 @@ def _finish(
         outside = np.ones(z.size, dtype=bool)
         outside[clamped] = False
         z[outside] = 0.0
-        w = M @ z + q
+        w = dense.matvec(M, z) + q
         if clamped.size:
             C = clamped
             corr = _lstsq(M[np.ix_(C, C)], -w[C], rcond)
             z_try = z.copy()
             z_try[C] += corr
-            w_try = M @ z_try + q
+            w_try = dense.matvec(M, z_try) + q
             vt = _verify_tol(M, q, z)
             if np.min(z_try[C]) >= -vt and np.max(np.abs(w_try[C])) <= np.max(np.abs(w[C])):
                 z = z_try
     vt = _verify_tol(M, q, z)
     z = np.where((z < 0) & (z >= -vt), 0.0, z)
-    w = M @ z + q
+    w = dense.matvec(M, z) + q
     res = LCPResult(
         z=z,
         w=w,
@@ -496,12 +498,12 @@ def dantzig(
         if C.size:
             z_try = np.zeros(n)
             z_try[C] = zc
-            w_try = M @ z_try + q
+            w_try = dense.matvec(M, z_try) + q
             if np.max(np.abs(w_try[C])) <= 1e-9 * max(q_scale, m_scale * float(np.max(zc)), 1e-300):
                 z = z_try
                 state[C] = CLAMP
                 method = "warm_start+dantzig"
-    w = M @ z + q
+    w = dense.matvec(M, z) + q
 
     def w_tol() -> float:
         zs = float(np.max(np.abs(z))) if n else 0.0
@@ -532,12 +534,12 @@ def dantzig(
             if C.size:
                 MCC = M[np.ix_(C, C)]
                 dz[C] = -_lstsq(MCC, M[C, d], rcond)
-                resid = MCC @ dz[C] + M[C, d]
+                resid = dense.matvec(MCC, np.ascontiguousarray(dz[C])) + M[C, d]
                 if np.max(np.abs(resid)) > 1e-8 * max(m_scale * float(np.max(np.abs(dz))), 1e-300):
                     status = "singular"
                     message = "clamped subsystem is singular and inconsistent"
                     break
-            dw = M @ dz
+            dw = dense.matvec(M, dz)
             eps_z = tol * max(1.0, float(np.max(np.abs(dz))))
             idx: list[np.ndarray] = []
             steps: list[np.ndarray] = []
@@ -578,7 +580,7 @@ def dantzig(
             # indices outside C and d carry z = 0 exactly
             z[(state != CLAMP) & (np.arange(n) != d)] = 0.0
             np.maximum(z, 0.0, out=z)
-            w = M @ z + q
+            w = dense.matvec(M, z) + q
             if j == d:
                 break
     clamped = np.flatnonzero(state == CLAMP)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pbr_xval.reference import dense
 from pbr_xval.reference.pivoting import LCPResult, _as_problem, _scales, _verify_tol, solve_lcp
 
 __all__ = ["solve_lcp_min_norm"]
@@ -104,31 +105,29 @@ def solve_lcp_min_norm(
     if S.size == 0:
         return out
     MS = M[:, S]
-    _, sv, Vt = np.linalg.svd(MS, full_matrices=True)
-    rank = int(np.sum(sv > rank_rtol * (sv[0] if sv.size else 0.0))) if sv.size else 0
-    N = Vt[rank:].T  # (|S|, nullity)
+    N = dense.null_space(np.ascontiguousarray(MS), rank_rtol)  # (|S|, nullity)
     if N.shape[1] == 0:
         return out  # unique solution
     x0 = base.z[S]
-    P = N @ N.T
-    qq = x0 + P @ (r[S] - x0)
+    P = dense.matmul(N, np.ascontiguousarray(N.T))
+    qq = x0 + dense.matvec(P, r[S] - x0)
     sub = solve_lcp(P, qq, method="dantzig", tol=tol)
     out.pivots_by_method["closest"] = sub.pivots
     out.pivots += sub.pivots
     if not sub.ok:
         out.message = f"projection LCP failed ({sub.status}); returning the pivoting solution"
         return out
-    x = P @ sub.z + qq
+    x = dense.matvec(P, sub.z) + qq
     # re-project onto x0 + range(N) to remove roundoff, then check feasibility
-    x = x0 + P @ (x - x0)
+    x = x0 + dense.matvec(P, x - x0)
     z = np.zeros(n)
     z[S] = x
     vt = _verify_tol(M, q, z)
-    w = M @ z + q
+    w = dense.matvec(M, z) + q
     if np.min(x) < -vt or np.max(np.abs(w - base.w)) > 1e3 * vt:
         out.message = "closest solution failed the feasibility check; returning the pivoting solution"
         return out
     z[S] = np.maximum(x, 0.0)
     out.z = z
-    out.w = M @ z + q
+    out.w = dense.matvec(M, z) + q
     return out

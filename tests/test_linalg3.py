@@ -87,6 +87,20 @@ def test_principal_axes_right_handed_and_products() -> None:
         linalg3.rows_mul(np.ones(3), np.eye(3))
 
 
+def test_inv3_is_the_inverse_and_refuses_a_singular_matrix() -> None:
+    rng = np.random.default_rng(9)
+    for kind in (0, 1, 3):
+        for _ in range(100):
+            a = _random_symmetric(rng, kind) if kind else rng.normal(size=(3, 3))
+            inv = linalg3.inv3(a)
+            np.testing.assert_allclose(inv, np.linalg.inv(a), rtol=1e-9 * np.linalg.cond(a), atol=0)
+    # a rock's inertia tensor (kg m²), off-diagonal products of inertia: I⁻¹ I = 1 to round-off
+    inertia = np.array([[30.1, -0.4, 1.2], [-0.4, 28.7, 0.3], [1.2, 0.3, 21.9]])
+    np.testing.assert_allclose(linalg3.mat3_mul(linalg3.inv3(inertia), inertia), np.eye(3), atol=1e-15)
+    with pytest.raises(ValueError, match=r"matrix is singular \(determinant 0.0\)"):
+        linalg3.inv3(np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]]))
+
+
 # The engines' inputs and a short MuJoCo and PyBullet run on a scanned-like rock (a synthetic mesh,
 # so the test needs no shared data), printed as hashes. The rock starts tilted (the ensembles'
 # seating tilt) and is shaken along 20° by a half-sine that rocks it.
