@@ -42,6 +42,7 @@ __all__ = [
     "brier_f1",
     "candidate_settings",
     "choice_lines",
+    "margin_rule",
     "pareto_front",
     "recommend",
     "run_tradeoff",
@@ -139,6 +140,17 @@ def pareto_front(cost: np.ndarray, brier: np.ndarray) -> np.ndarray:
         dom = ok & (c <= c[i]) & (b <= b[i]) & ((c < c[i]) | (b < b[i]))
         front[i] = not dom.any()
     return front
+
+
+def margin_rule(k_se: float, cost_tie: float) -> str:
+    """The recommendation rule of :func:`recommend` in words — the one wording the ``recommend``
+    line, ``tradeoff.json``'s ``margin_rule`` and the page all print."""
+    return (
+        f"the cheapest setting whose Brier exceeds the best by at most {k_se:g} standard error of the mean "
+        f"paired difference of squared errors over the tests both ran; costs within {100 * cost_tie:g} % of the "
+        "cheapest such setting's count as equal (one run's timings), and of those the lowest Brier is taken; "
+        "a setting with failed runs is never recommended"
+    )
 
 
 def recommend(
@@ -288,9 +300,8 @@ def choice_lines(res: dict[str, Any]) -> list[str]:
         b = t[t["best"]].iloc[0]
         lines.append(
             f"recommend {r.engine} {r.settings} cost {r.cost_s_per_test:.4g} Brier {r.brier:.4f} F1 {_num(r.f1, '.4f')} "
-            f"(cheapest with Brier within {res['k_se']:g} SE of the paired difference to the best, costs within "
-            f"{100 * res['cost_tie']:g} % of the cheapest equal and the lower Brier taken, "
-            f"{b.engine} {b.settings} Brier {b.brier:.4f}; margin {r.margin:.4f} on {r.n_ok} tests)"
+            f"(best {b.engine} {b.settings} Brier {b.brier:.4f}; margin {r.margin:.4f} on {r.n_ok} tests; "
+            f"rule: {margin_rule(res['k_se'], res['cost_tie'])})"
         )
     return lines
 
@@ -463,8 +474,7 @@ def write_tradeoff(res: dict[str, Any], out: Path, meta: dict[str, Any]) -> dict
         **meta,
         "cost": "mean engine wall time per test (simulate only), s, on this machine",
         "brier": "mean (p − y)² with p = 0/1 predicted toppled, y = observed (= error rate)",
-        "margin_rule": f"cheapest setting with Brier − best Brier ≤ {res['k_se']:g} × SE of the mean paired difference of squared errors; "
-        f"costs within {100 * res['cost_tie']:g} % of the cheapest such setting's count as equal (one run's timings), and of those the lowest Brier is taken",
+        "margin_rule": margin_rule(res["k_se"], res["cost_tie"]),
         "settings": json.loads(t.to_json(orient="records")),
         "recommendation": None if i is None else json.loads(t.loc[[i]].to_json(orient="records"))[0],
         "lines": lines,
@@ -504,9 +514,7 @@ th{{background:#f4f4f4}}code{{background:#f4f4f4}}</style></head><body>
 <h2>Pareto front: cost vs Brier</h2>
 <p>x: mean engine wall time per test, s (the simulation only, on this machine at the load stated above);
 y: Brier score of the 0/1 predictions against the observed outcomes (equal to the error rate).
-The recommendation is the cheapest setting whose Brier exceeds the best by at most {res["k_se"]:g} standard
-error of the mean paired difference of squared errors over the tests both ran, costs within {100 * res["cost_tie"]:g} %
-of the cheapest such setting's counting as equal (one run's timings; of those the lowest Brier is taken); a setting with failed runs is never recommended.</p>
+The recommendation is {html.escape(margin_rule(res["k_se"], res["cost_tie"]))}.</p>
 <img alt="Pareto front, cost vs Brier" src="data:image/png;base64,{img}">
 <h2>Settings</h2>
 {show.to_html(index=False, escape=True, float_format=lambda v: f"{v:.4g}")}

@@ -3,6 +3,7 @@ small synthetic campaign (a box under one-column table records; housner and MuJo
 
 from __future__ import annotations
 
+import html
 import json
 import re
 from pathlib import Path
@@ -11,7 +12,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pbr_xval.catalog.tradeoff import COST_TIE, Setting, brier_f1, candidate_settings, pareto_front, recommend
+from pbr_xval.catalog.tradeoff import (
+    COST_TIE,
+    Setting,
+    brier_f1,
+    candidate_settings,
+    margin_rule,
+    pareto_front,
+    recommend,
+)
 
 DT = 0.005  # s
 
@@ -181,7 +190,14 @@ def test_choose_campaign_cli(tmp_path, capsys, monkeypatch):
     assert len(doc["settings"]) == 3 and doc["recommendation"] is not None
     tests = pd.read_csv(out / "tests.csv")
     assert len(tests) == 3 * 4 and set(tests["status"]) == {"ok"}
-    assert "Pareto" in (out / "index.html").read_text()
+    page = (out / "index.html").read_text()
+    assert "Pareto" in page
+    # the rule in one wording: the recommend line, tradeoff.json and the page print the same words
+    rule = margin_rule(1.0, COST_TIE)
+    assert "15 %" in rule and "1 standard error" in rule
+    assert doc["margin_rule"] == rule
+    assert rec[0].endswith(f"rule: {rule})")
+    assert f"The recommendation is {html.escape(rule)}." in page
     # resumable: the same command again runs nothing (every chunk is in the store)
     before = sorted(p.name for p in (tmp_path / "work" / "store").rglob("*.parquet"))
     assert choose_campaign_command(csv, **args) == 0
