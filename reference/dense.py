@@ -126,12 +126,11 @@ def lstsq(a, b, rcond):
     """The minimum-norm least-squares solution x (n,) of a x = b (a (m, n), b (m,)), singular
     values at most ``rcond`` × the largest treated as zero (``numpy.linalg.lstsq``'s rule)."""
     m, n = a.shape
-    x = np.zeros(n)
     if m == 0 or n == 0:
-        return x
+        return np.zeros(n)
     w, sv, v = svd_jacobi(a)
     if sv[0] == 0.0:
-        return x
+        return np.zeros(n)
     cut = rcond * sv[0]
     y = np.zeros(n)
     for k in range(n):
@@ -140,12 +139,7 @@ def lstsq(a, b, rcond):
             for i in range(m):
                 s += w[i, k] * b[i]
             y[k] = s / (sv[k] * sv[k])  # (w_k · b) / s_k²: w_k = s_k u_k
-    for i in range(n):
-        s = 0.0
-        for k in range(n):
-            s += v[i, k] * y[k]
-        x[i] = s
-    return x
+    return matvec(v, y)
 
 
 @njit(cache=True)
