@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 
 from pbr_xval.engine import Capabilities, EngineBase, EngineSettingsError, Event, NotApplicable, Trajectory
-from pbr_xval.linalg3 import mat3_mul, mat3_vec, norm3, rows_dot
+from pbr_xval.linalg3 import mat3_mul, mat3_vec, norm3, rows_mul
 from pbr_xval.status import RunStatus
 
 if TYPE_CHECKING:
@@ -417,8 +417,7 @@ class _StaticSupport:
         from scipy.spatial import ConvexHull, QhullError
 
         # body.nodes @ Rᵀ and the products below without BLAS (linalg3: the same bits on every CPU)
-        R = state.R
-        world = state.x + np.stack([rows_dot(body.nodes, R[i]) for i in range(3)], axis=1)
+        world = state.x + rows_mul(body.nodes, state.R.T)
         gaps = pedestal.gaps(world, _ZERO)
         pts = world[gaps <= eps, :2]
         h = float(state.x[2])

@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from pbr_xval.reference import dense
-from pbr_xval.reference.pivoting import lemke
+from pbr_xval.reference.pivoting import _lstsq, lemke
 
 __all__ = ["FrictionResult", "friction_residuals", "solve_friction_cone", "solve_friction_pyramid"]
 
@@ -91,11 +91,6 @@ def _mv(a: np.ndarray, x: np.ndarray) -> np.ndarray:
 def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a @ b without BLAS (:func:`dense.matmul`)."""
     return dense.matmul(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float))
-
-
-def _lstsq(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``numpy.linalg.lstsq(a, b, rcond=1e-12)[0]`` without LAPACK (:func:`dense.lstsq`)."""
-    return dense.lstsq(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float), 1e-12)
 
 
 def _mu_vector(mu: float | np.ndarray, k: int) -> np.ndarray:
@@ -499,7 +494,7 @@ def _mode_polish_once(
     Gm = np.array(cols).T  # (3k, m) maps unknown changes to force changes
     a = _mv(A, base) + b
     E = _mm(A, Gm)[rows]
-    dx = _lstsq(E, -a[rows])
+    dx = _lstsq(E, -a[rows], 1e-12)
     return base + _mv(Gm, dx)
 
 
@@ -607,7 +602,7 @@ def _mode_newton(
         for _ in range(iters):
             if norm <= 1e-15 * b_scale:
                 break
-            dx = _lstsq(jac, -res)
+            dx = _lstsq(jac, -res, 1e-12)
             step = 1.0
             while True:
                 res2, jac2, ff2 = _mode_system(x + step * dx, slots, A, b, mu)

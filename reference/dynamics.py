@@ -89,7 +89,7 @@ from typing import Any
 
 import numpy as np
 
-from pbr_xval.linalg3 import eigh3, inv3
+from pbr_xval.linalg3 import eigh3, inv3, norm3
 from pbr_xval.reference import cone, dense, kernel, pivoting, selection
 
 __all__ = [
@@ -166,13 +166,6 @@ _ZERO3 = np.zeros(3)
 _ZERO3.flags.writeable = False
 _EYE3 = np.eye(3)
 _EYE3.flags.writeable = False
-
-
-def _norm(v: np.ndarray) -> float:
-    """|v| of a (3,) vector summed left to right (``v.dot(v)`` is a BLAS dot product, whose
-    rounding depends on the CPU)."""
-    x, y, z = v.tolist()
-    return math.sqrt(x * x + y * y + z * z)
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -457,11 +450,12 @@ class RigidBodySolver:
         self._pred = np.zeros(9)  # predictor memory: valid, t1, Δt, F0 (3), τ0 (3)
         self._pred_idx = np.zeros(n + 1, dtype=np.int64)  # its contact ids (count first)
         self._load_cache: tuple[float, np.ndarray] = (math.nan, np.zeros(3))
+        # the principal moments (ascending; eigh3: no LAPACK) and the largest node lever arm
+        moments = eigh3(body.inertia)[0]
+        lever = float(np.linalg.norm(body.nodes, axis=1).max())
         # angular-momentum scale per unit COM speed: λ_max(I') / (largest node lever arm)
-        self._lref = float(eigh3(body.inertia)[0][2]) / max(
-            float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300
-        )
-        self._size = max(float(np.linalg.norm(body.nodes, axis=1).max()), 1e-300)
+        self._lref = float(moments[2]) / max(lever, 1e-300)
+        self._size = max(lever, 1e-300)
         # impacts resolved inside kernel.step_block (layout kernel.IMP_*)
         closest = 1.0 if self.selection == "closest_to_previous" else 0.0
         self._imp = np.array([self.e, self.mu_s, 1.0 if self.reduce else 0.0, self._size, closest])
@@ -497,7 +491,7 @@ class RigidBodySolver:
             self._cull_order = np.argsort(lim, kind="stable")
             self._cull_lim = lim[self._cull_order].tolist()
         # |ω| ≤ |l| / λ_min(I): the tilt margin of a step
-        self._inv_lmin = 1.0 / max(float(eigh3(body.inertia)[0][0]), 1e-300)
+        self._inv_lmin = 1.0 / max(float(moments[0]), 1e-300)
         self._ext = np.zeros((7, 3))
         self._info = np.zeros(kernel.N_INFO)
         self.last_gaps = np.zeros(n)
@@ -789,7 +783,7 @@ class RigidBodySolver:
         self._active[idx] = np.where(jt[:, 0] > 0, 1, 0)
         self.stats.lcp_time += time.perf_counter() - t0
         vmin = float(vn.min())
-        nw = _norm(w)
+        nw = norm3(w)
         info = {
             "v_n_min": vmin,
             "nodes": int(inband.size),
@@ -1098,7 +1092,7 @@ class RigidBodySolver:
             st.selection_reverted += 1
         st.pgs_sweeps += int(v[kernel.J_SWEEPS])
         w = row[kernel.J_W0 : kernel.J_W0 + 3].copy()
-        nw = _norm(w)
+        nw = norm3(w)
         nw2 = v[kernel.J_W1]
         return {
             "v_n_min": v[kernel.J_VNMIN],
@@ -1197,8 +1191,8 @@ class RigidBodySolver:
         converged = False
         # convergence scales: the current momentum, or what the loads (≈ g) give in one step
         a0 = self._load(tl0)
-        vscale = max(_norm(s0.v), _norm(a0) * dt, 1e-300)
-        lscale = max(_norm(s0.l), self._lref * vscale, 1e-300)
+        vscale = max(norm3(s0.v), norm3(a0) * dt, 1e-300)
+        lscale = max(norm3(s0.l), self._lref * vscale, 1e-300)
         F1, tau1 = F0, tau0
         for it in range(1, self.iterations + 1):
             its = it
@@ -1216,8 +1210,8 @@ class RigidBodySolver:
                 R1 = cayley_project(R1, s0.R)
                 self.stats.cayley_projections += 1
             ddv, ddl = v1 - s1.v, l1 - s1.l
-            dv = _norm(ddv) / vscale
-            dl = _norm(ddl) / lscale
+            dv = norm3(ddv) / vscale
+            dl = norm3(ddl) / lscale
             dR = float(abs(R1 - s1.R).max())
             s1 = State(x1, v1, R1, l1)
             if max(dv, dl, dR) <= self.itol:
