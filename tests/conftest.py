@@ -59,6 +59,8 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     """
     import runpy
 
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        return  # the controller (pytest -n N) built it before starting its workers
     script = Path(__file__).resolve().parents[1] / "examples" / "validation" / "make_sp2_mesh.py"
     if (
         not script.is_file()
