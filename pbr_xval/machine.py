@@ -6,7 +6,7 @@ import functools
 import os
 import platform
 
-__all__ = ["describe_machine", "machine_info"]
+__all__ = ["blas_kernel_env", "cpu_has", "describe_machine", "machine_info"]
 
 
 @functools.cache
@@ -51,6 +51,26 @@ def _blas_kernels() -> str:
         if lib.get("internal_api") == "openblas":
             return str(lib.get("architecture") or "")
     return ""
+
+
+def cpu_has(flag: str) -> bool:
+    """Whether the CPU lists ``flag`` (e.g. ``"avx512f"``) among ``/proc/cpuinfo``'s flags."""
+    return flag in _cpuinfo().get("flags", "").split()
+
+
+def blas_kernel_env(coretype: str | None = None, npy_disable: str | None = None) -> dict[str, str]:
+    """The environment for a child Python that computes as another CPU would: this process's
+    environment with one OpenBLAS thread, ``OPENBLAS_CORETYPE`` = ``coretype`` (e.g. "Haswell",
+    "SkylakeX", "Sandybridge"; None: the kernels this CPU picks) and ``NPY_DISABLE_CPU_FEATURES``
+    = ``npy_disable`` (NumPy's own vector loops switched off; None: all on). Both variables are
+    read when the child loads NumPy, so they cannot be changed in a running process."""
+    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
+    env["OPENBLAS_NUM_THREADS"] = "1"
+    if coretype:
+        env["OPENBLAS_CORETYPE"] = coretype
+    if npy_disable:
+        env["NPY_DISABLE_CPU_FEATURES"] = npy_disable
+    return env
 
 
 def machine_info() -> dict[str, str]:

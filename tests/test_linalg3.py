@@ -13,7 +13,6 @@ under the other; docs/validation.md, "Machine dependence").
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -22,6 +21,7 @@ import numpy as np
 import pytest
 
 from pbr_xval import linalg3
+from pbr_xval.machine import blas_kernel_env, cpu_has
 
 
 def _random_symmetric(rng: np.random.Generator, kind: int) -> np.ndarray:
@@ -143,20 +143,8 @@ print(json.dumps(out))
 NPY_AVX512 = "X86_V4 AVX512_ICL AVX512_SPR"
 
 
-def _avx512() -> bool:
-    try:
-        return "avx512f" in Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return False
-
-
 def _probe(tmp: Path, coretype: str | None, npy_off: str | None = None) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
-    env["OPENBLAS_NUM_THREADS"] = "1"
-    if coretype:
-        env["OPENBLAS_CORETYPE"] = coretype
-    if npy_off:
-        env["NPY_DISABLE_CPU_FEATURES"] = npy_off
+    env = blas_kernel_env(coretype, npy_off)
     res = subprocess.run(
         [sys.executable, "-c", PROBE, str(tmp)], env=env, capture_output=True, text=True, timeout=300
     )
@@ -176,7 +164,7 @@ def test_engine_inputs_and_runs_are_the_same_under_every_blas_kernel(tmp_path: P
         "Haswell": _probe(tmp_path, "Haswell"),
         "no AVX-512 in NumPy": _probe(tmp_path, None, NPY_AVX512),
     }
-    if _avx512():
+    if cpu_has("avx512f"):
         variants["SkylakeX"] = _probe(tmp_path, "SkylakeX")
     old_cpus = {c: _probe(tmp_path, c) for c in ("Sandybridge", "Prescott")}
     # the probe can tell kernels apart: LAPACK's eigenvectors or BLAS's products differ

@@ -51,3 +51,29 @@ def test_describe_machine_names_the_cpu_generation_and_kernels_in_one_line() -> 
             "blas_kernels": "", "cpu_count": "4"}  # fmt: skip
     assert describe_machine(bare) == "unknown CPU (BLAS kernels unknown), 4 logical CPUs"
     assert "\n" not in describe_machine()
+
+
+def test_cpu_has_reads_the_flags_line(monkeypatch) -> None:
+    """``cpu_has``: a flag of ``/proc/cpuinfo``'s flags line, whole words only."""
+    from pbr_xval import machine
+
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {"flags": "sse4_2 avx avx2 avx512f"})
+    assert machine.cpu_has("avx2") and machine.cpu_has("avx512f")
+    assert not machine.cpu_has("avx512") and not machine.cpu_has("avx512bw")
+    monkeypatch.setattr(machine, "_cpuinfo", lambda: {})
+    assert not machine.cpu_has("avx2")  # no /proc/cpuinfo: nothing claimed
+
+
+def test_blas_kernel_env_forces_or_clears_the_kernels(monkeypatch) -> None:
+    """``blas_kernel_env``: one OpenBLAS thread; the kernel family and NumPy's switched-off loops
+    as asked, and none inherited from this process when not asked."""
+    from pbr_xval.machine import blas_kernel_env
+
+    monkeypatch.setenv("OPENBLAS_CORETYPE", "Zen")
+    monkeypatch.setenv("NPY_DISABLE_CPU_FEATURES", "AVX512F")
+    plain = blas_kernel_env()
+    assert plain["OPENBLAS_NUM_THREADS"] == "1"
+    assert "OPENBLAS_CORETYPE" not in plain and "NPY_DISABLE_CPU_FEATURES" not in plain
+    env = blas_kernel_env("Haswell", "X86_V4")
+    assert env["OPENBLAS_CORETYPE"] == "Haswell" and env["NPY_DISABLE_CPU_FEATURES"] == "X86_V4"
+    assert env["PATH"] == plain["PATH"]

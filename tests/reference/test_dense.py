@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pbr_xval.machine import blas_kernel_env, cpu_has
 from pbr_xval.reference import dense
 
 
@@ -116,20 +117,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SHARED_DATA = Path(os.environ.get("PBR_XVAL_SHARED_DATA") or ROOT.parent / "shared" / "data")
 
 
-def _avx512() -> bool:
-    try:
-        return "avx512f" in Path("/proc/cpuinfo").read_text()
-    except OSError:
-        return False
-
-
 def _probe(args: list[str], coretype: str | None, npy_off: str | None = None) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_CORETYPE", "NPY_DISABLE_CPU_FEATURES")}
-    env["OPENBLAS_NUM_THREADS"] = "1"
-    if coretype:
-        env["OPENBLAS_CORETYPE"] = coretype
-    if npy_off:
-        env["NPY_DISABLE_CPU_FEATURES"] = npy_off
+    env = blas_kernel_env(coretype, npy_off)
     res = subprocess.run(
         [sys.executable, "-c", PROBE, *args], env=env, capture_output=True, text=True, timeout=600
     )
@@ -148,7 +137,7 @@ def test_reference_is_the_same_under_every_avx2_blas_kernel() -> None:
     args = [str(ROOT / "benchmarks"), str(campaign)] if (campaign / "experiments.csv").is_file() else []
     here = _probe(args, "Haswell")
     variants = {"no AVX-512 in NumPy": _probe(args, "Haswell", NPY_AVX512)}
-    if _avx512():
+    if cpu_has("avx512f"):
         variants["SkylakeX"] = _probe(args, "SkylakeX")
     old = {"Sandybridge": _probe([], "Sandybridge")}  # the solvers alone: no scanned rock
     # the probe can tell the kernels apart: LAPACK's lstsq or inverse differs somewhere
