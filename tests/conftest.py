@@ -73,11 +73,6 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    # the long tests first (``slow``: the campaign guards, each a `validate` with two processes of
-    # its own, are most of the suite's time): the two pytest workers (``-n 2 --dist worksteal``) then
-    # fill the gaps of their serial phases with short tests instead of ending on the guards alone.
-    # Order only; every test runs
-    items[:] = [i for i in items if "slow" in i.keywords] + [i for i in items if "slow" not in i.keywords]
     if os.environ.get("PBR_XVAL_SLOW") == "1" or "optional_study" in (config.getoption("-m") or ""):
         return
     skip = pytest.mark.skip(reason="optional long study (guards no claim): set PBR_XVAL_SLOW=1 to run")
