@@ -589,8 +589,8 @@ class ReferenceEngine(EngineBase):
                 # 1e-6, not 1e-7: the contact stabilisation's 1e-8 m/s dead band lets a
                 # resting rock creep rigidly at 1.0e-7 (SP2 596) to 2.8e-7 m/s (SP2 608) on
                 # this scale, which the test must take for rest; holding zeroes a kinetic
-                # energy ≤ ½ m (1e-6 m/s)², ~1e-11 of a scanned rock's toppling barrier
-                # (reference/PERFORMANCE.md, sixteenth pass)
+                # energy ≤ ½ m (1e-6 m/s)², ~2e-11 of a scanned rock's toppling barrier
+                # (reference/PERFORMANCE.md, seventeenth pass)
                 "rest_velocity": 1e-6,
                 # during the excitation, a rock at rest (rest_velocity) on a contact polygon that
                 # holds the coming loads in static equilibrium (the load's line of action
