@@ -546,10 +546,10 @@ def test_catalogs_tradeoff_table_against_the_experiments() -> None:
 
 @pytest.mark.skipif(not (SHAKE / "experiments.csv").is_file(), reason=f"shake-table data not at {SHAKE}")
 def test_catalogs_recommendation_margin() -> None:
-    """ "the reference at 1 ms: +0.015 against a margin of 0.022 on 196 tests; the reference at 2 ms:
-    +0.010 against 0.020; MuJoCo hull at 4 ms: +0.041 against 0.023, outside; MuJoCo decimated at 4 ms:
+    """ "the reference at 1 ms: +0.010 against a margin of 0.022 on 196 tests; the reference at 2 ms:
+    +0.000 against 0.020; MuJoCo hull at 4 ms: +0.041 against 0.023, outside; MuJoCo decimated at 4 ms:
     +0.031 against 0.020, outside": the Brier difference to the best setting (MuJoCo's hull at 1 ms,
-    the lowest Brier) and one standard error of the mean paired difference of squared errors,
+    the first of the two with the lowest Brier: the reference at 2 ms ties it) and one standard error of the mean paired difference of squared errors,
     recomputed from the per-test predictions and the lab's outcomes; the settings the page names as
     within the margin are; the recommendation is, of those within it whose costs lie within 15 % of
     the cheapest one's, the lowest Brier (the rule the page states, recomputed here)."""
@@ -562,7 +562,14 @@ def test_catalogs_recommendation_margin() -> None:
     keys = sorted(sq)
     best = ("mujoco", _settings("0.001", "hull"))
     lowest = min(np.mean(list(sq[k].values())) for k in keys)
-    assert [k for k in keys if np.mean(list(sq[k].values())) == lowest] == [best]
+    # a tie (17 errors each); the report's best is the first of the two in its table order
+    tied = [k for k in keys if np.mean(list(sq[k].values())) == lowest]
+    assert tied == [best, ("reference", _settings("0.002", None))]
+    assert any(
+        ln.startswith("choice mujoco profile=faithful,timestep=0.001,collision=hull ")
+        and ln.endswith(" best")
+        for ln in json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
+    )
     d1, m1, d2, m2, dh4, mh4, dd4, md4 = _find(
         "catalogs.md",
         r"the reference at 1 ms: \+([\d.]+) against a margin of ([\d.]+) on 196 tests;\s+the reference at 2 ms:"
@@ -584,12 +591,11 @@ def test_catalogs_recommendation_margin() -> None:
             assert diff.mean() == pytest.approx(documented[k][0], abs=5e-4), k
             assert se == pytest.approx(documented[k][1], abs=5e-4), k
             assert within[k] == documented[k][2], k
-    # "the settings within the margin (the reference at 1–4 ms, CoACD at 1–2 ms, PyBullet decimated at 1 ms)"
+    # "the settings within the margin (the reference at 1–2 ms, CoACD at 1–2 ms, PyBullet decimated at 1 ms)"
     assert sorted(k for k in keys if within[k] and k != best) == sorted(
         [
             ("reference", _settings("0.001", None)),
             ("reference", _settings("0.002", None)),
-            ("reference", _settings("0.004", None)),
             ("mujoco", _settings("0.001", "coacd")),
             ("mujoco", _settings("0.002", "coacd")),
             ("pybullet", _settings("0.001", "decimated")),
@@ -599,17 +605,17 @@ def test_catalogs_recommendation_margin() -> None:
     cost = {k: _setting_scores(*k)["cost"] for k in keys if within[k]}
     cheap = [k for k in cost if cost[k] <= (1 + tie / 100) * min(cost.values())]
     recommended = min(cheap, key=lambda k: (np.mean(list(sq[k].values())), cost[k]))
-    assert recommended == ("reference", _settings("0.001", None))
+    assert recommended == ("reference", _settings("0.002", None))
     c, brier, f1 = _find(
         "catalogs.md",
-        r"`recommend reference profile=faithful,timestep=0\.001 cost ([\d.]+) Brier ([\d.]+) F1 ([\d.]+)`",
+        r"`recommend reference profile=faithful,timestep=0\.002 cost ([\d.]+) Brier ([\d.]+) F1 ([\d.]+)`",
     )
     got = _setting_scores(*recommended)
     assert c == pytest.approx(got["cost"], abs=5e-5)
     assert (brier, f1) == (pytest.approx(got["brier"], abs=5e-5), pytest.approx(got["f1"], abs=5e-5))
     # the committed report's own recommend line says the same
     assert any(
-        line.startswith("recommend reference profile=faithful,timestep=0.001 ")
+        line.startswith("recommend reference profile=faithful,timestep=0.002 ")
         for line in json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
     )
 
