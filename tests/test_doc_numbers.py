@@ -549,10 +549,11 @@ def test_catalogs_recommendation_margin() -> None:
     """ "the reference at 1 ms: +0.010 against a margin of 0.022 on 196 tests; the reference at 2 ms:
     +0.000 against 0.020; MuJoCo hull at 4 ms: +0.041 against 0.023, outside; MuJoCo decimated at 4 ms:
     +0.031 against 0.020, outside": the Brier difference to the best setting (MuJoCo's hull at 1 ms,
-    the first of the two with the lowest Brier: the reference at 2 ms ties it) and one standard error of the mean paired difference of squared errors,
-    recomputed from the per-test predictions and the lab's outcomes; the settings the page names as
-    within the margin are; the recommendation is, of those within it whose costs lie within 15 % of
-    the cheapest one's, the lowest Brier (the rule the page states, recomputed here)."""
+    the first of the two with the lowest Brier: the reference at 2 ms ties it) and one standard error
+    of the mean paired difference of squared errors, recomputed from the per-test predictions and the
+    lab's outcomes; the settings the page names as within the margin are; the recommendation is, of
+    those within it whose costs lie within 15 % of the cheapest one's, the lowest Brier (the rule the
+    page states, recomputed here)."""
     obs = _observed_sp1()
     sq: dict[tuple[str, str], dict[str, int]] = {}
     for r in _tradeoff_rows():
@@ -565,10 +566,11 @@ def test_catalogs_recommendation_margin() -> None:
     # a tie (17 errors each); the report's best is the first of the two in its table order
     tied = [k for k in keys if np.mean(list(sq[k].values())) == lowest]
     assert tied == [best, ("reference", _settings("0.002", None))]
+    lines = json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
     assert any(
         ln.startswith("choice mujoco profile=faithful,timestep=0.001,collision=hull ")
         and ln.endswith(" best")
-        for ln in json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
+        for ln in lines
     )
     d1, m1, d2, m2, dh4, mh4, dd4, md4 = _find(
         "catalogs.md",
@@ -614,10 +616,7 @@ def test_catalogs_recommendation_margin() -> None:
     assert c == pytest.approx(got["cost"], abs=5e-5)
     assert (brier, f1) == (pytest.approx(got["brier"], abs=5e-5), pytest.approx(got["f1"], abs=5e-5))
     # the committed report's own recommend line says the same
-    assert any(
-        line.startswith("recommend reference profile=faithful,timestep=0.002 ")
-        for line in json.loads((TRADEOFF / "tradeoff.json").read_text())["lines"]
-    )
+    assert any(ln.startswith("recommend reference profile=faithful,timestep=0.002 ") for ln in lines)
 
 
 def test_catalogs_projection_arithmetic() -> None:
